@@ -1,0 +1,81 @@
+"""Lightmap atlas: xatlas charts the receiving and emitting triangles at a texel density and
+packs them onto one or more pages. Texels follow surface area, not triangle count."""
+from dataclasses import dataclass
+
+import numpy as np
+import xatlas
+
+from .errors import SettingsError
+
+
+@dataclass
+class Atlas:
+    width: int
+    height: int
+    page_count: int
+    triangles: np.ndarray   # (C,) scene triangle indices that have lightmap texels
+    page: np.ndarray        # (C,) page of each charted triangle
+    texels: np.ndarray      # (C, 3, 2) corner positions in texels, texel i spans [i, i+1)
+    density: float
+
+    def uv(self):
+        """Corner coordinates normalised to [0, 1] on their page (v up, as Blender's UVs)."""
+        return self.texels / np.array([self.width, self.height], dtype=np.float64)
+
+
+def build_atlas(scene, density, max_size=4096, padding=2, charted=None):
+    """Chart and pack the triangles flagged in ``charted`` (receivers and emitters by default).
+
+    Each object is its own xatlas mesh, so charts never join across objects. When the atlas
+    would exceed ``max_size`` texels on a side, xatlas fills several pages of that size.
+    """
+    if not np.isfinite(density) or density <= 0.0:
+        raise SettingsError(f"texel density must be a positive number of texels per metre, "
+                            f"got {density}")
+    if charted is None:
+        charted = scene.receive | (scene.emission.max(axis=1) > 0.0)
+    chosen = np.nonzero(charted)[0]
+    if len(chosen) == 0:
+        raise SettingsError("no triangle receives a lightmap: enable 'receive' on an object")
+
+    mesh_triangles = [chosen[scene.object_index[chosen] == obj]
+                      for obj in np.unique(scene.object_index[chosen])]
+    atlas = _atlas_of(scene, mesh_triangles)
+
+    chart_options = xatlas.ChartOptions()
+    pack_options = xatlas.PackOptions()
+    pack_options.texels_per_unit = float(density)
+    pack_options.padding = int(padding)
+    pack_options.bilinear = True
+    pack_options.max_chart_size = int(max_size - 2 * padding - 2)
+    atlas.generate(chart_options, pack_options)
+    if atlas.width > max_size or atlas.height > max_size:
+        atlas = _atlas_of(scene, mesh_triangles)
+        pack_options.resolution = int(max_size)
+        atlas.generate(chart_options, pack_options)
+
+    width, height = int(atlas.width), int(atlas.height)
+    texels = np.zeros((len(chosen), 3, 2))
+    page = np.zeros(len(chosen), dtype=np.int64)
+    order = np.concatenate(mesh_triangles)
+    row = 0
+    for mesh, members in enumerate(mesh_triangles):
+        _, indices, uvs = atlas[mesh]
+        pages, _ = atlas.get_mesh_vertex_assignment(mesh)
+        corners = uvs[indices.reshape(-1, 3)].astype(np.float64)
+        # xatlas puts texel centres on integer + 0.5 coordinates of its charts; shifting by
+        # half a texel makes a chart of whole texels cover whole texels.
+        texels[row:row + len(members)] = corners * [width, height] - 0.5
+        page[row:row + len(members)] = pages[indices.reshape(-1, 3)[:, 0]]
+        row += len(members)
+    return Atlas(width, height, max(int(atlas.atlas_count), 1), order, page,
+                 np.clip(texels, 0.0, [width, height]), float(density))
+
+
+def _atlas_of(scene, mesh_triangles):
+    atlas = xatlas.Atlas()
+    for members in mesh_triangles:
+        used, local = np.unique(scene.triangles[members], return_inverse=True)
+        atlas.add_mesh(scene.vertices[used].astype(np.float32),
+                       local.reshape(-1, 3).astype(np.uint32))
+    return atlas

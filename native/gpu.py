@@ -1,0 +1,84 @@
+"""OpenGL plumbing: a headless 4.1 core context, GLSL files loaded from the package's shaders/
+folder, and one registry that releases every GL object the solver made."""
+from pathlib import Path
+import re
+
+import moderngl
+
+from .errors import GLUnavailableError
+
+SHADER_DIR = Path(__file__).resolve().parent.parent / "shaders"
+_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
+
+INSTALL_HINT = ("Luxel needs OpenGL 4.1. Install or update the GPU driver; on a machine without "
+                "a GPU install Mesa (Debian/Ubuntu: apt install libegl1 libgl1-mesa-dri; "
+                "Fedora: dnf install mesa-libEGL mesa-dri-drivers).")
+
+
+def create_context():
+    """A headless OpenGL 4.1+ core context (EGL on Linux, the native API elsewhere)."""
+    attempts = [{"backend": "egl"}, {}]
+    errors = []
+    for kwargs in attempts:
+        try:
+            return moderngl.create_standalone_context(require=410, **kwargs)
+        except Exception as error:  # moderngl raises plain Exceptions for missing drivers
+            errors.append(f"{kwargs.get('backend', 'default')}: {error}")
+    raise GLUnavailableError(f"{INSTALL_HINT} ({'; '.join(errors)})")
+
+
+def load_shader(name):
+    """Source of shaders/<name>, with #include "file" lines replaced by that file."""
+    def expand(path, seen):
+        if path in seen:
+            raise RuntimeError(f"recursive #include of {path}")
+        text = (SHADER_DIR / path).read_text()
+        return _INCLUDE.sub(lambda m: expand(m.group(1), seen | {path}), text)
+    return expand(name, frozenset())
+
+
+class GLObjects:
+    """Every GL object the solver creates goes through here and is released in one place,
+    in reverse order, also when construction failed halfway."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self._objects = []
+
+    def keep(self, obj):
+        self._objects.append(obj)
+        return obj
+
+    def texture(self, size, components, dtype="f4", data=None):
+        texture = self.keep(self.ctx.texture(size, components, data=data, dtype=dtype))
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return texture
+
+    def texture_array(self, size, components, dtype="f4"):
+        texture = self.keep(self.ctx.texture_array(size, components, dtype=dtype))
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return texture
+
+    def framebuffer(self, color_attachments, depth_attachment=None):
+        return self.keep(self.ctx.framebuffer(color_attachments, depth_attachment))
+
+    def depth_texture(self, size):
+        return self.keep(self.ctx.depth_texture(size))
+
+    def buffer(self, data=None, reserve=0):
+        return self.keep(self.ctx.buffer(data, reserve=reserve))
+
+    def program(self, vertex, fragment, geometry=None):
+        return self.keep(self.ctx.program(
+            vertex_shader=load_shader(vertex), fragment_shader=load_shader(fragment),
+            geometry_shader=load_shader(geometry) if geometry else None))
+
+    def vertex_array(self, program, content):
+        return self.keep(self.ctx.vertex_array(program, content))
+
+    def release(self):
+        while self._objects:
+            self._objects.pop().release()
+
+    def __len__(self):
+        return len(self._objects)

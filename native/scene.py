@@ -1,0 +1,240 @@
+"""Scene description handed to the solver: plain numpy arrays, validated on construction."""
+from dataclasses import dataclass, field
+import math
+
+import numpy as np
+
+from .errors import SceneError
+
+
+def _vec3(value, name):
+    array = np.asarray(value, dtype=np.float64).reshape(-1)
+    if array.shape != (3,):
+        raise SceneError(f"{name} must have 3 components, got {array.shape[0]}")
+    return array
+
+
+@dataclass
+class PointLight:
+    """Blender point light of ``power`` watts: intensity power * color / (4 pi) W/sr."""
+    position: tuple
+    power: float
+    color: tuple = (1.0, 1.0, 1.0)
+    name: str = "Point"
+
+    def intensity(self):
+        return self.power * _vec3(self.color, "color") / (4.0 * math.pi)
+
+    def emitted_power(self):
+        return self.power * _vec3(self.color, "color")
+
+
+@dataclass
+class SpotLight:
+    """Blender spot light: a point light's intensity cut to a cone of full angle ``spot_size``
+    (radians) with Blender's ``spot_blend`` soft edge; the power is not concentrated."""
+    position: tuple
+    direction: tuple
+    power: float
+    spot_size: float = math.radians(45.0)
+    spot_blend: float = 0.15
+    color: tuple = (1.0, 1.0, 1.0)
+    name: str = "Spot"
+
+    def intensity(self):
+        return self.power * _vec3(self.color, "color") / (4.0 * math.pi)
+
+    def cos_half_angle(self):
+        return math.cos(min(self.spot_size, math.pi) * 0.5)
+
+    def smooth_width(self):
+        return (1.0 - self.cos_half_angle()) * self.spot_blend
+
+    def emitted_power(self):
+        # Integral of the smoothstep mask over the sphere, in cosine units: the blend band
+        # contributes half its width.
+        cos_half = self.cos_half_angle()
+        return self.intensity() * 2.0 * math.pi * ((1.0 - cos_half) - 0.5 * self.smooth_width())
+
+
+@dataclass
+class SunLight:
+    """Blender sun of ``strength`` W/m^2; ``direction`` is the way the light travels."""
+    direction: tuple
+    strength: float
+    color: tuple = (1.0, 1.0, 1.0)
+    name: str = "Sun"
+
+    def irradiance(self):
+        return self.strength * _vec3(self.color, "color")
+
+
+@dataclass
+class Scene:
+    """Triangles in world space (metres) with per-triangle materials and point-like lights.
+
+    vertices (V, 3), triangles (T, 3) vertex indices, counter-clockwise seen from the front.
+    normals (V, 3), optional shading normals; face normals otherwise.
+    albedo (T, 3) diffuse reflectance in [0, 1); emission (T, 3) emitted radiance
+    (Blender's emission colour x strength); emission_two_sided (T,) emits from both faces
+    as Blender's emission shader does (default) or only from the front.
+    receive (T,) gets a lightmap; non-receiving triangles still occlude and emit.
+    object_index (T,) into object_names, used in messages and by the add-on.
+    albedo_texture_index (T,) into albedo_textures ((H, W, 3 or 4) linear float arrays, row 0
+    at v = 0) sampled through albedo_uv (T, 3, 2); -1 for none. The texture is multiplied by
+    the triangle's albedo.
+    """
+    vertices: np.ndarray
+    triangles: np.ndarray
+    albedo: np.ndarray = None
+    emission: np.ndarray = None
+    normals: np.ndarray = None
+    emission_two_sided: np.ndarray = None
+    receive: np.ndarray = None
+    object_index: np.ndarray = None
+    object_names: list = field(default_factory=lambda: ["mesh"])
+    albedo_uv: np.ndarray = None
+    albedo_texture_index: np.ndarray = None
+    albedo_textures: list = field(default_factory=list)
+    lights: list = field(default_factory=list)
+
+    def __post_init__(self):
+        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
+        self.triangles = np.ascontiguousarray(self.triangles, dtype=np.int64)
+        if self.vertices.ndim != 2 or self.vertices.shape[1] != 3:
+            raise SceneError(f"vertices must be an array of shape (V, 3), got {self.vertices.shape}")
+        if self.triangles.ndim != 2 or self.triangles.shape[1] != 3:
+            raise SceneError(f"triangles must be an array of shape (T, 3), got {self.triangles.shape}")
+        count = len(self.triangles)
+        if count == 0:
+            raise SceneError("the scene has no triangles: add at least one mesh with faces")
+
+        def per_triangle(value, default, dtype, width=None):
+            if value is None:
+                shape = (count,) if width is None else (count, width)
+                return np.full(shape, default, dtype=dtype)
+            array = np.ascontiguousarray(value, dtype=dtype)
+            expected = (count,) if width is None else (count, width)
+            if array.shape != expected:
+                raise SceneError(f"per-triangle array has shape {array.shape}, expected {expected}")
+            return array
+
+        self.albedo = per_triangle(self.albedo, 0.8, np.float64, 3)
+        self.emission = per_triangle(self.emission, 0.0, np.float64, 3)
+        self.emission_two_sided = per_triangle(self.emission_two_sided, True, bool)
+        self.receive = per_triangle(self.receive, True, bool)
+        self.object_index = per_triangle(self.object_index, 0, np.int64)
+        self.albedo_texture_index = per_triangle(self.albedo_texture_index, -1, np.int64)
+        if self.albedo_uv is not None:
+            self.albedo_uv = np.ascontiguousarray(self.albedo_uv, dtype=np.float64)
+        self._validate()
+
+    def object_name(self, triangle):
+        index = int(self.object_index[triangle])
+        if 0 <= index < len(self.object_names):
+            return self.object_names[index]
+        return f"object {index}"
+
+    def _fail(self, message, triangle=None):
+        name = None if triangle is None else self.object_name(triangle)
+        where = "" if triangle is None else f"object '{name}', triangle {int(triangle)}: "
+        raise SceneError(where + message, name)
+
+    def _validate(self):
+        vertex_count = len(self.vertices)
+        out_of_range = (self.triangles < 0) | (self.triangles >= vertex_count)
+        if out_of_range.any():
+            self._fail("vertex index out of range", int(np.argmax(out_of_range.any(axis=1))))
+        used = np.zeros(vertex_count, dtype=bool)
+        used[self.triangles.ravel()] = True
+        bad = used & ~np.isfinite(self.vertices).all(axis=1)
+        if bad.any():
+            vertex = int(np.argmax(bad))
+            users = np.nonzero((self.triangles == vertex).any(axis=1))[0]
+            self._fail(f"vertex {vertex} is not finite {self.vertices[vertex].tolist()}; "
+                       "fix or delete it", users[0])
+        if self.normals is not None:
+            self.normals = np.ascontiguousarray(self.normals, dtype=np.float64)
+            if self.normals.shape != self.vertices.shape or not np.isfinite(self.normals).all():
+                raise SceneError("normals must be finite and of the same shape as vertices")
+
+        corners = self.vertices[self.triangles]
+        doubled = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        area = 0.5 * np.linalg.norm(doubled, axis=1)
+        edge = np.max(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2), axis=1)
+        degenerate = area <= 1e-7 * np.maximum(edge, 1e-30) ** 2
+        if degenerate.any():
+            self._fail("the triangle is degenerate (zero area); merge its vertices or delete it",
+                       int(np.argmax(degenerate)))
+        self.triangle_area = area
+
+        for name, values in (("albedo", self.albedo), ("emission", self.emission)):
+            bad = ~np.isfinite(values).all(axis=1)
+            if bad.any():
+                self._fail(f"{name} is not finite", int(np.argmax(bad)))
+        bad = ((self.albedo < 0.0) | (self.albedo >= 1.0)).any(axis=1)
+        if bad.any():
+            triangle = int(np.argmax(bad))
+            self._fail(f"albedo {self.albedo[triangle].tolist()} is outside [0, 1); a diffuse "
+                       "surface cannot reflect all light: lower the base colour below 1", triangle)
+        bad = (self.emission < 0.0).any(axis=1)
+        if bad.any():
+            self._fail("emission is negative; use a colour and strength of 0 or more",
+                       int(np.argmax(bad)))
+
+        textured = self.albedo_texture_index >= 0
+        if textured.any():
+            if self.albedo_uv is None or self.albedo_uv.shape != (len(self.triangles), 3, 2):
+                raise SceneError("albedo_uv of shape (T, 3, 2) is needed with albedo textures")
+            if (self.albedo_texture_index >= len(self.albedo_textures)).any():
+                self._fail("albedo texture index out of range",
+                           int(np.argmax(self.albedo_texture_index >= len(self.albedo_textures))))
+            for index, image in enumerate(self.albedo_textures):
+                image = np.asarray(image)
+                if image.ndim != 3 or image.shape[2] not in (3, 4) or not np.isfinite(image).all():
+                    raise SceneError(f"albedo texture {index} must be a finite (H, W, 3|4) array")
+                if image[..., :3].min() < 0.0 or image[..., :3].max() >= 1.0:
+                    raise SceneError(f"albedo texture {index} has values outside [0, 1)")
+
+        for light in self.lights:
+            self._validate_light(light)
+        sun_power = sum(float(np.sum(light.irradiance())) for light in self.lights
+                        if isinstance(light, SunLight))
+        if self.emitted_power().sum() <= 0.0 and sun_power <= 0.0:
+            raise SceneError("the scene has no light: add a light with positive power or a "
+                             "material with emission colour and strength above 0")
+
+    def _validate_light(self, light):
+        label = f"light '{light.name}'"
+        numbers = []
+        for attribute in ("position", "direction", "color"):
+            if hasattr(light, attribute):
+                numbers.extend(np.asarray(getattr(light, attribute), dtype=np.float64).ravel())
+        for attribute in ("power", "strength", "spot_size", "spot_blend"):
+            if hasattr(light, attribute):
+                numbers.append(float(getattr(light, attribute)))
+        if not np.isfinite(numbers).all():
+            raise SceneError(f"{label} has a value that is not finite", light.name)
+        if min(np.asarray(light.color, dtype=np.float64)) < 0.0:
+            raise SceneError(f"{label} has a negative colour", light.name)
+        if getattr(light, "power", 0.0) < 0.0 or getattr(light, "strength", 0.0) < 0.0:
+            raise SceneError(f"{label} has negative power; use 0 or more", light.name)
+        if hasattr(light, "direction") and np.linalg.norm(light.direction) == 0.0:
+            raise SceneError(f"{label} has no direction", light.name)
+        if isinstance(light, SpotLight) and not (0.0 < light.spot_size <= math.pi
+                                                 and 0.0 <= light.spot_blend <= 1.0):
+            raise SceneError(f"{label}: spot size must be in (0, 180] degrees and blend in [0, 1]",
+                             light.name)
+
+    def emitted_power(self):
+        """Analytic RGB power (W) leaving the emitting triangles, plus point and spot lights.
+        Suns are counted by the solver, which knows the area they cover."""
+        sides = np.where(self.emission_two_sided, 2.0, 1.0)
+        total = (math.pi * self.emission * (self.triangle_area * sides)[:, None]).sum(axis=0)
+        for light in self.lights:
+            if isinstance(light, (PointLight, SpotLight)):
+                total = total + light.emitted_power()
+        return total
+
+    def bounds(self):
+        return self.vertices.min(axis=0), self.vertices.max(axis=0)

@@ -1,0 +1,658 @@
+"""Progressive-refinement radiosity on the GPU (Wallner 2008/2009, Section 2 of the
+evaluation paper), in lightmap space, with the hemicube for visibility.
+
+    solver = Solver(scene, Settings(texel_density=40))   # create: atlas, preprocess
+    while solver.step():                                 # one shot at a time
+        print(solver.progress)                           # shots, unshot fraction, seconds
+    pages = solver.result()                              # current lightmaps, any time
+    solver.release()                                     # every GL object, in one place
+
+Per texel the maps hold world position and area, normal, tangent, albedo, emission, the
+accumulated irradiance E and the unshot radiance. A lightmap texel is rho * E / pi, the
+reflected diffuse radiance a Cycles DIFFUSE bake (direct + indirect + colour) writes.
+"""
+from dataclasses import dataclass, field
+import math
+import time
+
+import moderngl
+import numpy as np
+
+from .atlas import build_atlas
+from .errors import GPUMemoryError, SettingsError
+from .gpu import GLObjects, create_context
+from .scene import PointLight, SpotLight, SunLight
+
+# Per texel: position+area, normal+size, irradiance, unshot, emission (RGBA32F, 16 B each),
+# tangent and albedo (RGBA16F, 8 B each).
+BYTES_PER_TEXEL = 5 * 16 + 2 * 8
+RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
+                 ("in_albedo", 3), ("in_emission", 4), ("in_receive", 1))
+PHASES = ("preprocess", "selection", "visibility", "receivers", "postprocess")
+
+
+@dataclass
+class Settings:
+    texel_density: float = 20.0      # lightmap texels per metre
+    max_atlas_size: int = 4096       # largest page side; more pages when exceeded
+    padding: int = 2                 # texels between charts
+    hemicube_resolution: int = 128   # texels on a side of each visibility face
+    shoot_level: int = 0             # mip level shot from: a shooter spans 2^level texels
+    threshold: float = 0.01          # stop when this fraction of the emitted power is unshot
+    max_shots: int = 10000           # stop after this many shots
+    memory_limit: int = 4 << 30      # bytes of GPU memory Luxel may use
+    profile: bool = False            # wait for the GPU after each phase for exact timings
+
+    def validate(self):
+        checks = [
+            (self.max_atlas_size >= 16, "max_atlas_size must be at least 16"),
+            (self.padding >= 1, "padding must be at least 1 texel"),
+            (8 <= self.hemicube_resolution <= 4096, "hemicube_resolution must be in 8..4096"),
+            (0 <= self.shoot_level <= 6, "shoot_level must be in 0..6"),
+            (0.0 <= self.threshold < 1.0, "threshold must be in [0, 1)"),
+            (self.max_shots >= 0, "max_shots must be 0 or more"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise SettingsError(message)
+
+
+@dataclass
+class Progress:
+    shots: int
+    unshot_fraction: float   # measured before the latest shot
+    seconds: float
+    converged: bool
+    texels: int
+
+
+@dataclass
+class Ledger:
+    """RGB power in watts. emitted = absorbed + escaped + unshot at every step; escaped is what
+    was shot and reached no receiving surface (open scenes, back faces)."""
+    emitted: np.ndarray
+    absorbed: np.ndarray
+    escaped: np.ndarray
+    unshot: np.ndarray
+
+    def imbalance(self):
+        residual = self.emitted - (self.absorbed + self.escaped + self.unshot)
+        return float(np.max(np.abs(residual) / np.maximum(self.emitted, 1e-30)))
+
+
+@dataclass
+class _Page:
+    attributes: object      # framebuffer: position, normal, tangent, albedo, emission (+depth)
+    receivers: object       # framebuffer: irradiance, unshot
+    unshot_only: object     # framebuffer: unshot
+    area_only: object       # framebuffer: position (area in .w)
+    textures: dict
+    pyramid: list = field(default_factory=list)   # (texture, framebuffer) from block level to 1x1
+
+
+class Solver:
+    """GPU progressive radiosity for one scene. Create, step, read progress and results,
+    release. Pass ``ctx`` to share an existing moderngl context; every call makes it current
+    with ``with ctx:`` and restores the caller's context afterwards."""
+
+    def __init__(self, scene, settings=None, ctx=None):
+        self.scene = scene
+        self.settings = settings or Settings()
+        self.settings.validate()
+        self.timings = dict.fromkeys(PHASES, 0.0)
+        self.shots = 0
+        self.converged = False
+        self._unshot_fraction = 1.0
+        self._shot_power = np.zeros(3)
+        self._owns_context = ctx is None
+        self.ctx = None
+        self._gl = None
+        self._started = time.perf_counter()
+        try:
+            self.ctx = ctx if ctx is not None else create_context()
+            self._gl = GLObjects(self.ctx)
+            with self.ctx:
+                self._timed("preprocess", self._preprocess)
+        except BaseException:
+            self.release()
+            raise
+
+    # ----------------------------------------------------------------- public API
+    def step(self):
+        """Shoot once: the pending lights first, then the texel patch with the most unshot
+        power. Returns False, shooting nothing, once converged or out of shots."""
+        if self.converged or self.ctx is None:
+            return False
+        with self.ctx:
+            power, page, block, total = self._timed("selection", self._select)
+            pending = sum(float(np.mean(self._light_power(light))) for light in self._pending)
+            self._unshot_fraction = (total + pending) / self._emitted_scalar
+            if (self._unshot_fraction <= self.settings.threshold
+                    or self.shots >= self.settings.max_shots
+                    or (not self._pending and power <= 0.0)):
+                self.converged = True
+                return False
+            if self._pending:
+                self._shoot_light(self._pending.pop(0))
+            else:
+                self._shoot_patch(page, block)
+            self.shots += 1
+        return True
+
+    def run(self, callback=None):
+        """Step until converged; ``callback(progress)`` after each shot may return False to stop."""
+        while self.step():
+            if callback is not None and callback(self.progress) is False:
+                break
+        return self.progress
+
+    @property
+    def progress(self):
+        return Progress(self.shots, self._unshot_fraction, time.perf_counter() - self._started,
+                        self.converged, self.texel_count)
+
+    def result(self):
+        """Current lightmaps, one float32 (height, width, 4) array per atlas page, row 0 at
+        v = 0 as in Blender images. RGB is reflected radiance, alpha 1 on occupied texels;
+        the gutter around charts is filled with the neighbouring values (alpha 0)."""
+        with self.ctx:
+            return self._timed("postprocess", self._postprocess)
+
+    def ledger(self):
+        """Energy ledger from the GPU maps (read back, summed in double precision)."""
+        with self.ctx:
+            absorbed = np.zeros(3)
+            received = np.zeros(3)
+            unshot = np.zeros(3)
+            for page in self._pages:
+                maps = {name: self._read(page.textures[name])
+                        for name in ("position", "albedo", "irradiance", "unshot", "emission")}
+                area = maps["position"][..., 3:4]
+                irradiance = maps["irradiance"][..., :3] * area
+                received += irradiance.reshape(-1, 3).sum(axis=0)
+                absorbed += ((1.0 - maps["albedo"][..., :3]) * irradiance).reshape(-1, 3).sum(axis=0)
+                radiance = maps["unshot"][..., :3] + maps["unshot"][..., 3:4] * maps["emission"][..., :3]
+                unshot += math.pi * (radiance * area).reshape(-1, 3).sum(axis=0)
+            for light in self._pending:
+                unshot += self._light_power(light)
+            return Ledger(self._emitted.copy(), absorbed, self._shot_power - received, unshot)
+
+    def release(self):
+        """Release every GL object (and the context, if the solver made it). Idempotent."""
+        if self._gl is not None:
+            with self.ctx:
+                self._gl.release()
+            self._gl = None
+        if self.ctx is not None and self._owns_context:
+            self.ctx.release()
+        self.ctx = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
+    @property
+    def gl_object_count(self):
+        return 0 if self._gl is None else len(self._gl)
+
+    @property
+    def texel_count(self):
+        return self._texel_count
+
+    @property
+    def gpu_memory_bytes(self):
+        return self._memory_bytes
+
+    @property
+    def page_size(self):
+        return self.atlas.width, self.atlas.height
+
+    # ----------------------------------------------------------------- preprocess
+    def _preprocess(self):
+        settings = self.settings
+        scene = self.scene
+        lo, hi = scene.bounds()
+        self._centre = 0.5 * (lo + hi)
+        self._radius = 0.5 * float(np.linalg.norm(hi - lo)) * 1.01 + 1e-6
+        self._epsilon = 1e-5 * self._radius
+
+        self.atlas = build_atlas(scene, settings.texel_density, settings.max_atlas_size,
+                                 settings.padding)
+        self._check_memory()
+        gl = self._gl
+        self._programs = {
+            "attributes": gl.program("raster.vert", "raster_attributes.frag", "raster.geom"),
+            "area": gl.program("raster.vert", "raster_area.frag", "raster.geom"),
+            "init": gl.program("fullscreen.vert", "init_unshot.frag"),
+            "block": gl.program("fullscreen.vert", "block_power.frag"),
+            "argmax": gl.program("fullscreen.vert", "argmax.frag"),
+            "visibility": gl.program("visibility.vert", "visibility.frag", "visibility.geom"),
+            "patch": gl.program("fullscreen.vert", "receive_patch.frag"),
+            "light": gl.program("fullscreen.vert", "receive_light.frag"),
+            "clear": gl.program("clear_texels.vert", "clear_texels.frag"),
+            "resolve": gl.program("fullscreen.vert", "resolve.frag"),
+            "dilate": gl.program("fullscreen.vert", "dilate.frag"),
+        }
+        self._fullscreen = {name: gl.vertex_array(self._programs[name], [])
+                            for name in ("init", "block", "argmax", "patch", "light",
+                                         "resolve", "dilate")}
+        self._albedo_textures = []
+        for image in scene.albedo_textures:
+            image = np.asarray(image, dtype=np.float32)
+            rgba = np.ones(image.shape[:2] + (4,), np.float32)
+            rgba[..., :image.shape[2]] = image
+            texture = gl.texture(image.shape[1::-1], 4, data=rgba.tobytes())
+            texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self._albedo_textures.append(texture)
+
+        size = (self.atlas.width, self.atlas.height)
+        self._pages = [self._allocate_page(size) for _ in range(self.atlas.page_count)]
+        self._rasterize()
+
+        resolution = settings.hemicube_resolution
+        self._visibility = gl.texture_array((resolution, resolution, 6), 1)
+        self._visibility_fbo = gl.framebuffer([self._visibility])
+        positions = scene.vertices[scene.triangles].astype("f4")
+        self._scene_vbo = gl.buffer(positions.tobytes())
+        self._visibility_vao = gl.vertex_array(
+            self._programs["visibility"], [(self._scene_vbo, "3f", "in_position")])
+        self._triangle_vertices = positions.shape[0] * 3
+        block = 1 << settings.shoot_level
+        self._clear_vbo = gl.buffer(reserve=block * block * 8)
+        self._clear_vao = gl.vertex_array(self._programs["clear"],
+                                          [(self._clear_vbo, "2f", "in_texel")])
+
+        self._measure_emission()
+        self._pending = [light for light in scene.lights if np.mean(self._light_power(light)) > 0]
+        self._emitted = self._emitted_maps + sum((self._light_power(l) for l in self._pending),
+                                                 np.zeros(3))
+        self._emitted_scalar = float(np.mean(self._emitted))
+
+    def _check_memory(self):
+        atlas = self.atlas
+        texels = atlas.width * atlas.height * atlas.page_count
+        block = 1 << self.settings.shoot_level
+        pyramid = texels / (block * block) * 16 * 4 / 3
+        visibility = self.settings.hemicube_resolution ** 2 * 6 * 4
+        self._memory_bytes = int(texels * BYTES_PER_TEXEL + pyramid + visibility)
+        limit = int(self.settings.memory_limit)
+        max_size = self.ctx.info["GL_MAX_TEXTURE_SIZE"]
+        if self._memory_bytes > limit or max(atlas.width, atlas.height) > max_size:
+            scale = math.sqrt(max(limit - visibility, 1) / (self._memory_bytes - visibility))
+            density = atlas.density * min(scale, max_size / max(atlas.width, atlas.height)) * 0.9
+            raise GPUMemoryError(
+                f"the lightmaps need {self._memory_bytes / 2**20:.0f} MiB of GPU memory "
+                f"({texels} texels on {atlas.page_count} page(s) of {atlas.width}x{atlas.height}) "
+                f"but {limit / 2**20:.0f} MiB are available: lower the texel density to about "
+                f"{density:.3g} texels per metre", self._memory_bytes, limit, density)
+
+    def _allocate_page(self, size):
+        gl = self._gl
+        textures = {
+            "position": gl.texture(size, 4),
+            "normal": gl.texture(size, 4),
+            "tangent": gl.texture(size, 4, "f2"),
+            "albedo": gl.texture(size, 4, "f2"),
+            "emission": gl.texture(size, 4),
+            "irradiance": gl.texture(size, 4),
+            "unshot": gl.texture(size, 4),
+        }
+        depth = gl.depth_texture(size)
+        page = _Page(
+            attributes=gl.framebuffer([textures[n] for n in
+                                       ("position", "normal", "tangent", "albedo", "emission")], depth),
+            receivers=gl.framebuffer([textures["irradiance"], textures["unshot"]]),
+            unshot_only=gl.framebuffer([textures["unshot"]]),
+            area_only=gl.framebuffer([textures["position"]]),
+            textures=textures)
+        block = 1 << self.settings.shoot_level
+        level = (-(-size[0] // block), -(-size[1] // block))
+        while True:
+            texture = gl.texture(level, 4)
+            page.pyramid.append((texture, gl.framebuffer([texture])))
+            if level == (1, 1):
+                break
+            level = (-(-level[0] // 2), -(-level[1] // 2))
+        return page
+
+    def _rasterize(self):
+        scene, atlas = self.scene, self.atlas
+        tris = atlas.triangles
+        corners = scene.triangles[tris]
+        positions = scene.vertices[corners]
+        if scene.normals is not None:
+            normals = scene.normals[corners]
+        else:
+            face = np.cross(positions[:, 1] - positions[:, 0], positions[:, 2] - positions[:, 0])
+            normals = np.repeat(face[:, None, :], 3, axis=1)
+        tex_uv = (scene.albedo_uv[tris] if scene.albedo_uv is not None
+                  else np.zeros((len(tris), 3, 2)))
+        texture_index = scene.albedo_texture_index[tris]
+        emission = np.concatenate([scene.emission[tris],
+                                   scene.emission_two_sided[tris, None].astype(float)], axis=1)
+        per_corner = lambda values: np.repeat(values[:, None, :], 3, axis=1)
+        vertex_data = np.concatenate([
+            atlas.texels, positions, normals, tex_uv, per_corner(scene.albedo[tris]),
+            per_corner(emission), per_corner(scene.receive[tris, None].astype(float)),
+        ], axis=2).astype("f4")
+        # Draw in runs of (page, albedo texture).
+        order = np.lexsort((texture_index, atlas.page))
+        vertex_data = vertex_data[order]
+        keys = np.stack([atlas.page[order], texture_index[order]], axis=1)
+        starts = np.nonzero(np.r_[True, (keys[1:] != keys[:-1]).any(axis=1)])[0]
+        ends = np.r_[starts[1:], len(keys)]
+
+        gl = self._gl
+        vbo = gl.buffer(vertex_data.tobytes())
+        vaos = {name: gl.vertex_array(self._programs[name],
+                                      [_buffer_content(self._programs[name], vbo, RASTER_LAYOUT)])
+                for name in ("attributes", "area")}
+        ctx = self.ctx
+        size = (float(atlas.width), float(atlas.height))
+        for name in ("attributes", "area"):
+            _set(self._programs[name], "u_atlas_size", size)
+        _set(self._programs["attributes"], "u_albedo_texture", 0)
+
+        for page in self._pages:
+            page.attributes.use()
+            page.attributes.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            page.receivers.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        for start, end in zip(starts, ends):
+            page_index, texture = keys[start]
+            self._pages[page_index].attributes.use()
+            program = self._programs["attributes"]
+            _set(program, "u_use_texture", int(texture >= 0))
+            if texture >= 0:
+                self._albedo_textures[texture].use(location=0)
+            vaos["attributes"].render(moderngl.TRIANGLES, vertices=3 * (end - start), first=3 * start)
+        ctx.disable(moderngl.DEPTH_TEST)
+
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_equation = moderngl.FUNC_ADD
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        for start, end in zip(starts, ends):
+            page = self._pages[keys[start][0]]
+            page.area_only.use()
+            page.area_only.color_mask = (False, False, False, True)
+            vaos["area"].render(moderngl.TRIANGLES, vertices=3 * (end - start), first=3 * start)
+            page.area_only.color_mask = (True, True, True, True)
+        ctx.disable(moderngl.BLEND)
+
+        init = self._programs["init"]
+        _set(init, "u_emission", 0)
+        for page in self._pages:
+            page.unshot_only.use()
+            page.textures["emission"].use(location=0)
+            self._fullscreen["init"].render(moderngl.TRIANGLES, vertices=3)
+
+    def _measure_emission(self):
+        self._emitted_maps = np.zeros(3)
+        self._texel_count = 0
+        for page in self._pages:
+            position = self._read(page.textures["position"])
+            albedo = self._read(page.textures["albedo"])
+            unshot = self._read(page.textures["unshot"])
+            emission = self._read(page.textures["emission"])
+            area = position[..., 3:4]
+            radiance = unshot[..., :3] + unshot[..., 3:4] * emission[..., :3]
+            self._emitted_maps += math.pi * (radiance * area).reshape(-1, 3).sum(axis=0)
+            self._texel_count += int(np.count_nonzero((area[..., 0] > 0) & (albedo[..., 3] > 0)))
+
+    # ----------------------------------------------------------------- selection
+    def _select(self):
+        """Masked arg-max over the shooting level on the GPU; 4 floats read back per page."""
+        block_program = self._programs["block"]
+        _set(block_program, "u_block", 1 << self.settings.shoot_level)
+        for name, unit in (("u_position", 0), ("u_unshot", 1), ("u_emission", 2)):
+            _set(block_program, name, unit)
+        _set(self._programs["argmax"], "u_source", 0)
+        best = (0.0, None, None)
+        total = 0.0
+        for index, page in enumerate(self._pages):
+            texture, fbo = page.pyramid[0]
+            fbo.use()
+            page.textures["position"].use(location=0)
+            page.textures["unshot"].use(location=1)
+            page.textures["emission"].use(location=2)
+            self._fullscreen["block"].render(moderngl.TRIANGLES, vertices=3)
+            for (source, _), (_, target) in zip(page.pyramid, page.pyramid[1:]):
+                target.use()
+                source.use(location=0)
+                self._fullscreen["argmax"].render(moderngl.TRIANGLES, vertices=3)
+            power, x, y, page_total = np.frombuffer(page.pyramid[-1][0].read(), dtype="f4")
+            total += float(page_total)
+            if power > best[0]:
+                best = (float(power), index, (int(x), int(y)))
+        return best[0], best[1], best[2], total
+
+    # ----------------------------------------------------------------- shooting
+    def _shoot_patch(self, page_index, block):
+        page = self._pages[page_index]
+        size = 1 << self.settings.shoot_level
+        x0, y0 = block[0] * size, block[1] * size
+        width, height = min(size, self.atlas.width - x0), min(size, self.atlas.height - y0)
+        viewport = (x0, y0, width, height)
+        read = lambda fbo, attachment: np.frombuffer(
+            fbo.read(viewport=viewport, components=4, attachment=attachment, dtype="f4"),
+            dtype="f4").reshape(-1, 4).astype(np.float64)
+        position, normal, tangent = (read(page.attributes, i) for i in range(3))
+        emission = read(page.attributes, 4)
+        unshot = read(page.receivers, 1)
+
+        area = position[:, 3]
+        front = unshot[:, :3]
+        back = unshot[:, 3:4] * emission[:, :3]
+        power = (front + back).mean(axis=1) * area
+        strongest = int(np.argmax(power))
+        n0, p0 = normal[strongest, :3], position[strongest, :3]
+        # A shooter is the coplanar part of its block around the strongest texel: blocks at
+        # coarse levels may also hold texels of other charts, which keep their energy.
+        coplanar = ((power > 0.0) & (normal[:, :3] @ n0 > 0.95)
+                    & (np.abs((position[:, :3] - p0) @ n0) <= 0.25 * size * normal[strongest, 3]))
+        members = np.nonzero(coplanar)[0]
+        weights = area[members]
+        total_area = weights.sum()
+        radiance_front = (front[members] * weights[:, None]).sum(axis=0) / total_area
+        radiance_back = (back[members] * weights[:, None]).sum(axis=0) / total_area
+        centre = (position[members, :3] * weights[:, None]).sum(axis=0) / total_area
+        n = (normal[members, :3] * weights[:, None]).sum(axis=0)
+        n /= np.linalg.norm(n)
+        t = tangent[strongest, :3] - n * (tangent[strongest, :3] @ n)
+        t /= np.linalg.norm(t)
+        b = np.cross(n, t)
+        quad = self._shooter_quad(position[members, :3] - centre, normal[members, 3], t, b,
+                                  total_area, centre)
+        self._shot_power = self._shot_power + math.pi * total_area * (radiance_front + radiance_back)
+
+        two_sided = radiance_back.sum() > 0.0
+        eye = centre if two_sided else centre + n * self._epsilon
+        frame = np.stack([t, b, n], axis=1)
+        self._timed("visibility", self._render_visibility, eye, frame, 6 if two_sided else 5,
+                    not two_sided, False)
+
+        texel_x = members % width + x0
+        texel_y = members // width + y0
+        self._clear_texels(page, np.stack([texel_x, texel_y], axis=1))
+        program = self._programs["patch"]
+        _set(program, "u_quad", [tuple(corner) for corner in quad])
+        _set(program, "u_centre", tuple(centre))
+        _set(program, "u_radiance_front", tuple(radiance_front))
+        _set(program, "u_radiance_back", tuple(radiance_back))
+        self._timed("receivers", self._update_receivers, "patch")
+
+    @staticmethod
+    def _shooter_quad(offsets, texel_sizes, t, b, area, centre):
+        """Rectangle in the shooter's plane spanning its texels, scaled to their exact area."""
+        u, v = offsets @ t, offsets @ b
+        half = 0.5 * texel_sizes
+        u0, u1 = (u - half).min(), (u + half).max()
+        v0, v1 = (v - half).min(), (v + half).max()
+        scale = math.sqrt(area / max((u1 - u0) * (v1 - v0), 1e-30))
+        hu, hv = 0.5 * (u1 - u0) * scale, 0.5 * (v1 - v0) * scale
+        return [centre + sx * hu * t + sy * hv * b
+                for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+
+    def _shoot_light(self, light):
+        program = self._programs["light"]
+        if isinstance(light, SunLight):
+            n = np.asarray(light.direction, dtype=np.float64)
+            n /= np.linalg.norm(n)
+            frame = _frame_around(n)
+            eye = self._centre - n * self._radius
+            _set(program, "u_light_kind", 2)
+            _set(program, "u_light_value", tuple(light.irradiance()))
+            self._timed("visibility", self._render_visibility, eye, frame, 1, False, True)
+        else:
+            eye = np.asarray(light.position, dtype=np.float64)
+            _set(program, "u_light_kind", 0)
+            _set(program, "u_light_value", tuple(light.intensity()))
+            if isinstance(light, SpotLight):
+                axis = np.asarray(light.direction, dtype=np.float64)
+                _set(program, "u_light_kind", 1)
+                _set(program, "u_spot_axis", tuple(axis / np.linalg.norm(axis)))
+                _set(program, "u_spot_cos_half", light.cos_half_angle())
+                _set(program, "u_spot_smooth", light.smooth_width())
+            self._timed("visibility", self._render_visibility, eye, np.eye(3), 6, False, False)
+        self._shot_power = self._shot_power + self._light_power(light)
+        self._timed("receivers", self._update_receivers, "light")
+
+    def _light_power(self, light):
+        if isinstance(light, SunLight):
+            return light.irradiance() * (2.0 * self._radius) ** 2
+        return light.emitted_power()
+
+    def _view_uniforms(self, program, eye, frame, orthographic):
+        _set(program, "u_eye", tuple(eye))
+        _set(program, "u_frame", tuple(np.asarray(frame, dtype=np.float64).T.ravel()))
+        _set(program, "u_orthographic", int(orthographic))
+        _set(program, "u_ortho_half", self._radius)
+        _set(program, "u_near", 1e-6 * self._radius if not orthographic else 0.0)
+        _set(program, "u_far", 4.0 * self._radius + float(np.linalg.norm(eye - self._centre)))
+
+    def _render_visibility(self, eye, frame, faces, clip_below, orthographic):
+        program = self._programs["visibility"]
+        self._view_uniforms(program, eye, frame, orthographic)
+        _set(program, "u_face_count", faces)
+        _set(program, "u_clip_below", int(clip_below))
+        self._view = (eye, frame, orthographic)
+        ctx = self.ctx
+        self._visibility_fbo.use()
+        self._visibility_fbo.clear(3.0e38, 3.0e38, 3.0e38, 3.0e38)
+        if clip_below:
+            ctx.enable_direct(0x3000)  # GL_CLIP_DISTANCE0
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_equation = moderngl.MIN
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        self._visibility_vao.render(moderngl.TRIANGLES, vertices=self._triangle_vertices)
+        ctx.blend_equation = moderngl.FUNC_ADD
+        ctx.disable(moderngl.BLEND)
+        if clip_below:
+            ctx.disable_direct(0x3000)
+        self._finish()
+
+    def _clear_texels(self, page, texels):
+        self._clear_vbo.write(texels.astype("f4").tobytes())
+        page.unshot_only.use()
+        _set(self._programs["clear"], "u_atlas_size",
+             (float(self.atlas.width), float(self.atlas.height)))
+        self._clear_vao.render(moderngl.POINTS, vertices=len(texels))
+
+    def _update_receivers(self, kind):
+        program = self._programs[kind]
+        eye, frame, orthographic = self._view
+        self._view_uniforms(program, eye, frame, orthographic)
+        _set(program, "u_resolution", float(self.settings.hemicube_resolution))
+        _set(program, "u_epsilon", self._epsilon)
+        for name, unit in (("u_visibility", 0), ("u_position", 1), ("u_normal", 2), ("u_albedo", 3)):
+            _set(program, name, unit)
+        ctx = self.ctx
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_equation = moderngl.FUNC_ADD
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        self._visibility.use(location=0)
+        for page in self._pages:
+            page.receivers.use()
+            page.textures["position"].use(location=1)
+            page.textures["normal"].use(location=2)
+            page.textures["albedo"].use(location=3)
+            self._fullscreen[kind].render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.BLEND)
+        self._finish()
+
+    # ----------------------------------------------------------------- postprocess
+    def _postprocess(self):
+        gl = self._gl
+        size = (self.atlas.width, self.atlas.height)
+        if not hasattr(self, "_output"):
+            textures = [gl.texture(size, 4), gl.texture(size, 4)]
+            self._output = [(t, gl.framebuffer([t])) for t in textures]
+        resolve, dilate = self._programs["resolve"], self._programs["dilate"]
+        for name, unit in (("u_position", 0), ("u_albedo", 1), ("u_irradiance", 2)):
+            _set(resolve, name, unit)
+        _set(dilate, "u_source", 0)
+        pages = []
+        for page in self._pages:
+            (first, first_fbo), (second, second_fbo) = self._output
+            first_fbo.use()
+            page.textures["position"].use(location=0)
+            page.textures["albedo"].use(location=1)
+            page.textures["irradiance"].use(location=2)
+            self._fullscreen["resolve"].render(moderngl.TRIANGLES, vertices=3)
+            source, target = (first, first_fbo), (second, second_fbo)
+            for _ in range(self.settings.padding + 1):
+                target[1].use()
+                source[0].use(location=0)
+                self._fullscreen["dilate"].render(moderngl.TRIANGLES, vertices=3)
+                source, target = target, source
+            image = self._read(source[0])
+            image[..., 3] = (image[..., 3] == 1.0).astype(np.float32)
+            pages.append(image)
+        return pages
+
+    # ----------------------------------------------------------------- helpers
+    def _read(self, texture):
+        data = np.frombuffer(texture.read(), dtype=texture.dtype)
+        return data.reshape(texture.height, texture.width, 4).astype(np.float32)
+
+    def _finish(self):
+        if self.settings.profile:
+            self.ctx.finish()
+
+    def _timed(self, phase, function, *args):
+        start = time.perf_counter()
+        try:
+            return function(*args)
+        finally:
+            self._finish()
+            self.timings[phase] += time.perf_counter() - start
+
+
+def _buffer_content(program, vbo, layout):
+    """Vertex-array content for an interleaved buffer, skipping attributes the program's
+    compiler removed as unused."""
+    formats, names = [], []
+    for name, count in layout:
+        if name in program:
+            formats.append(f"{count}f")
+            names.append(name)
+        else:
+            formats.append(f"{4 * count}x")
+    return (vbo, " ".join(formats), *names)
+
+
+def _set(program, name, value):
+    """Set a uniform unless the compiler removed it as unused (drivers differ)."""
+    if name in program:
+        program[name].value = value
+
+
+def _frame_around(n):
+    """Orthonormal columns (t, b, n) with n the given unit vector."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    t = np.cross(helper, n)
+    t /= np.linalg.norm(t)
+    return np.stack([t, np.cross(n, t), n], axis=1)

@@ -1,0 +1,76 @@
+#version 410
+// Conservative rasterization in lightmap space (after Hasselgren et al., GPU Gems 2):
+// every edge is pushed out by half a texel diagonal so that each texel the triangle touches
+// gets a fragment; the fragment shader clips the texel square against the exact triangle.
+layout(triangles) in;
+layout(triangle_strip, max_vertices = 3) out;
+
+uniform vec2 u_atlas_size;   // page size in texels
+
+in VertexData {
+    vec2 texel;
+    vec3 position;
+    vec3 normal;
+    vec2 tex_uv;
+    vec3 albedo;
+    vec4 emission;
+    float receive;
+} v[];
+
+flat out vec2 g_texel[3];
+flat out vec3 g_position[3];
+flat out vec3 g_normal[3];
+flat out vec2 g_tex_uv[3];
+flat out vec3 g_albedo;
+flat out vec4 g_emission;
+flat out float g_receive;
+flat out vec3 g_face_normal;
+flat out vec3 g_tangent;          // world direction of +u in the lightmap
+flat out float g_texel_size;      // world length of one texel edge
+flat out float g_area_per_texel;  // world area of one texel square on this triangle
+
+float cross2(vec2 a, vec2 b) { return a.x * b.y - a.y * b.x; }
+
+void main() {
+    vec2 t0 = v[0].texel, t1 = v[1].texel, t2 = v[2].texel;
+    float uv_area2 = cross2(t1 - t0, t2 - t0);
+    vec3 e1 = v[1].position - v[0].position;
+    vec3 e2 = v[2].position - v[0].position;
+    vec3 n = cross(e1, e2);
+    float world_area2 = length(n);
+    if (abs(uv_area2) < 1e-10 || world_area2 <= 0.0) return;
+
+    // Jacobian of the affine map texel -> world: [e1 e2] = J [d1 d2].
+    vec2 d1 = t1 - t0, d2 = t2 - t0;
+    float inv = 1.0 / uv_area2;
+    vec3 ju = (e1 * d2.y - e2 * d1.y) * inv;
+    vec3 jv = (e2 * d1.x - e1 * d2.x) * inv;
+
+    for (int i = 0; i < 3; ++i) {
+        g_texel[i] = v[i].texel;
+        g_position[i] = v[i].position;
+        g_normal[i] = v[i].normal;
+        g_tex_uv[i] = v[i].tex_uv;
+    }
+    g_face_normal = n / world_area2;
+    g_tangent = normalize(ju);
+    g_area_per_texel = world_area2 / abs(uv_area2);
+    g_texel_size = sqrt(g_area_per_texel);
+
+    float orientation = sign(uv_area2);
+    vec2 t[3] = vec2[3](t0, t1, t2);
+    const float half_diagonal = 0.70711;
+    for (int i = 0; i < 3; ++i) {
+        vec2 prev = t[(i + 2) % 3], cur = t[i], next = t[(i + 1) % 3];
+        vec2 a = normalize(cur - prev), b = normalize(next - cur);
+        vec2 na = orientation * vec2(a.y, -a.x);
+        vec2 nb = orientation * vec2(b.y, -b.x);
+        vec2 expanded = cur + half_diagonal * (na + nb) / max(1.0 + dot(na, nb), 0.05);
+        g_albedo = v[0].albedo;
+        g_emission = v[0].emission;
+        g_receive = v[0].receive;
+        gl_Position = vec4(expanded / u_atlas_size * 2.0 - 1.0, 0.0, 1.0);
+        EmitVertex();
+    }
+    EndPrimitive();
+}

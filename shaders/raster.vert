@@ -1,0 +1,30 @@
+#version 410
+// Lightmap-space rasterization: one vertex per triangle corner (triangle soup).
+in vec2 in_texel;      // lightmap position in texels
+in vec3 in_position;   // world position
+in vec3 in_normal;     // shading normal
+in vec2 in_tex_uv;     // albedo texture coordinates
+in vec3 in_albedo;
+in vec4 in_emission;   // rgb radiance, a = 1 when the triangle emits from both faces
+in float in_receive;   // 1 when the triangle receives a lightmap
+
+out VertexData {
+    vec2 texel;
+    vec3 position;
+    vec3 normal;
+    vec2 tex_uv;
+    vec3 albedo;
+    vec4 emission;
+    float receive;
+} v;
+
+void main() {
+    v.texel = in_texel;
+    v.position = in_position;
+    v.normal = in_normal;
+    v.tex_uv = in_tex_uv;
+    v.albedo = in_albedo;
+    v.emission = in_emission;
+    v.receive = in_receive;
+    gl_Position = vec4(0.0);
+}

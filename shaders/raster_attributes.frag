@@ -1,0 +1,63 @@
+#version 410
+// Surface attributes per texel. A texel whose centre lies inside the triangle samples there;
+// a texel the triangle covers only partly samples at the covered_centre of the covered part, so
+// chart borders carry real surface values (no dark rims). Depth prefers the triangle that
+// holds the centre, then the one covering most of the texel.
+flat in vec2 g_texel[3];
+flat in vec3 g_position[3];
+flat in vec3 g_normal[3];
+flat in vec2 g_tex_uv[3];
+flat in vec3 g_albedo;
+flat in vec4 g_emission;
+flat in float g_receive;
+flat in vec3 g_face_normal;
+flat in vec3 g_tangent;
+flat in float g_texel_size;
+flat in float g_area_per_texel;
+
+uniform sampler2D u_albedo_texture;
+uniform int u_use_texture;
+
+layout(location = 0) out vec4 out_position;  // xyz, w = texel area (added by the area pass)
+layout(location = 1) out vec4 out_normal;    // xyz, w = world size of a texel edge
+layout(location = 2) out vec4 out_tangent;   // xyz
+layout(location = 3) out vec4 out_albedo;    // rgb, a = receives
+layout(location = 4) out vec4 out_emission;  // rgb radiance, a = emits from both faces
+
+#include "texel_clip.glsl"
+
+void main() {
+    vec2 origin = floor(gl_FragCoord.xy);
+    vec2 covered_centre;
+    float covered = clip_triangle_to_texel(origin, covered_centre);
+    if (covered <= 1e-7) discard;
+
+    vec2 centre = origin + 0.5;
+    vec3 w = barycentric(centre);
+    vec2 sample_point = centre;
+    float depth = 0.0;
+    if (min(w.x, min(w.y, w.z)) < 0.0) {
+        sample_point = covered_centre;
+        w = clamp(barycentric(covered_centre), 0.0, 1.0);
+        w /= (w.x + w.y + w.z);
+        depth = 0.5 + 0.49 * (1.0 - min(covered, 1.0));
+    }
+    gl_FragDepth = depth;
+
+    vec3 position = w.x * g_position[0] + w.y * g_position[1] + w.z * g_position[2];
+    vec3 normal = w.x * g_normal[0] + w.y * g_normal[1] + w.z * g_normal[2];
+    float len = length(normal);
+    normal = (len > 1e-12 && dot(normal, g_face_normal) > 0.0) ? normal / len : g_face_normal;
+
+    vec3 albedo = g_albedo;
+    if (u_use_texture != 0) {
+        vec2 uv = w.x * g_tex_uv[0] + w.y * g_tex_uv[1] + w.z * g_tex_uv[2];
+        albedo *= texture(u_albedo_texture, uv).rgb;
+    }
+
+    out_position = vec4(position, 0.0);
+    out_normal = vec4(normal, g_texel_size);
+    out_tangent = vec4(normalize(g_tangent - normal * dot(g_tangent, normal)), 0.0);
+    out_albedo = vec4(albedo, g_receive);
+    out_emission = g_emission;
+}

@@ -1,0 +1,54 @@
+#version 410
+// Receiver update for a shooting patch: every receiving texel visible from the shooter gains
+// irradiance pi * L * F, with F the exact point-to-polygon form factor (Lambert's formula)
+// of the shooter's quad clipped to the receiver's horizon: bounded however close they are.
+#include "projection.glsl"
+#include "visibility_test.glsl"
+#include "receiver_common.glsl"
+
+uniform vec3 u_quad[4];        // shooter quad corners, world space
+uniform vec3 u_centre;         // shooter centre
+uniform vec3 u_radiance_front; // unshot radiance leaving the front face
+uniform vec3 u_radiance_back;  // unshot radiance leaving the back face
+
+float polygon_form_factor(vec3 p, vec3 n) {
+    vec3 poly[5];
+    int count = 0;
+    for (int i = 0; i < 4; ++i) {
+        vec3 a = u_quad[i] - p, b = u_quad[(i + 1) % 4] - p;
+        float da = dot(a, n), db = dot(b, n);
+        if (da >= 0.0) poly[count++] = a;
+        if ((da >= 0.0) != (db >= 0.0)) poly[count++] = a + (b - a) * (da / (da - db));
+    }
+    if (count < 3) return 0.0;
+    float sum = 0.0;
+    for (int i = 0; i < count; ++i) {
+        vec3 a = poly[i], b = poly[(i + 1) % count];
+        float la = length(a), lb = length(b);
+        if (la < 1e-9 || lb < 1e-9) continue;
+        a /= la; b /= lb;
+        vec3 g = cross(a, b);
+        float s = length(g);
+        if (s < 1e-12) continue;
+        sum += atan(s, dot(a, b)) * dot(n, g) / s;
+    }
+    return min(abs(sum) / (2.0 * PI), 1.0);
+}
+
+void main() {
+    ivec2 texel = ivec2(gl_FragCoord.xy);
+    vec4 position = texelFetch(u_position, texel, 0);
+    vec4 albedo = texelFetch(u_albedo, texel, 0);
+    if (position.w <= 0.0 || albedo.a <= 0.0) discard;
+    vec3 normal = texelFetch(u_normal, texel, 0).xyz;
+
+    vec3 from_shooter = position.xyz - u_centre;
+    bool front = dot(from_shooter, u_frame[2]) > 0.0;
+    vec3 radiance = front ? u_radiance_front : u_radiance_back;
+    if (dot(radiance, vec3(1.0)) <= 0.0 || dot(normal, from_shooter) >= 0.0) discard;
+
+    float visible = visible_from_eye(position.xyz, normal);
+    if (visible <= 0.0) discard;
+    float form_factor = polygon_form_factor(position.xyz, normal);
+    deposit(PI * radiance * form_factor * visible, albedo.rgb);
+}

@@ -1,0 +1,26 @@
+#version 410
+// All faces of the visibility cube in one pass: one geometry-shader invocation per face,
+// each routed to its layer. A front-only shooter clips geometry behind its plane.
+layout(triangles, invocations = 6) in;
+layout(triangle_strip, max_vertices = 3) out;
+
+uniform int u_face_count;
+uniform int u_clip_below;
+
+in vec3 v_world[];
+out vec3 g_local;
+
+#include "projection.glsl"
+
+void main() {
+    if (gl_InvocationID >= u_face_count) return;
+    for (int i = 0; i < 3; ++i) {
+        vec3 local = to_local(v_world[i]);
+        g_local = local;
+        gl_Position = face_clip(local, gl_InvocationID);
+        gl_ClipDistance[0] = u_clip_below != 0 ? local.z : 1.0;
+        gl_Layer = gl_InvocationID;
+        EmitVertex();
+    }
+    EndPrimitive();
+}
