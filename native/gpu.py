@@ -1,7 +1,11 @@
 """OpenGL plumbing: a headless 4.1 core context, GLSL files loaded from the package's shaders/
 folder, and one registry that releases every GL object the solver made."""
+from contextlib import contextmanager
+import ctypes
+import ctypes.util
 from pathlib import Path
 import re
+import sys
 
 import moderngl
 
@@ -25,6 +29,91 @@ def create_context():
         except Exception as error:  # moderngl raises plain Exceptions for missing drivers
             errors.append(f"{kwargs.get('backend', 'default')}: {error}")
     raise GLUnavailableError(f"{INSTALL_HINT} ({'; '.join(errors)})")
+
+
+class _CurrentEGL:
+    """The calling thread's current EGL context, to hand back after Luxel's work."""
+
+    def __init__(self):
+        egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
+        for name in ("eglGetCurrentContext", "eglGetCurrentDisplay", "eglGetCurrentSurface"):
+            getattr(egl, name).restype = ctypes.c_void_p
+        egl.eglGetCurrentSurface.argtypes = [ctypes.c_int]
+        egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+        self._egl = egl
+
+    def save(self):
+        egl = self._egl
+        context = egl.eglGetCurrentContext()
+        if not context:
+            return None
+        return (egl.eglGetCurrentDisplay(), egl.eglGetCurrentSurface(0x3059),
+                egl.eglGetCurrentSurface(0x305A), context)
+
+    def restore(self, saved):
+        self._egl.eglMakeCurrent(*saved)
+
+
+class _CurrentGLX:
+    """The calling thread's current GLX context (Blender's own, on X11)."""
+
+    def __init__(self):
+        glx = ctypes.CDLL(ctypes.util.find_library("GL") or "libGL.so.1")
+        for name in ("glXGetCurrentContext", "glXGetCurrentDisplay"):
+            getattr(glx, name).restype = ctypes.c_void_p
+        for name in ("glXGetCurrentDrawable", "glXGetCurrentReadDrawable"):
+            getattr(glx, name).restype = ctypes.c_ulong
+        glx.glXMakeContextCurrent.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_ulong,
+                                              ctypes.c_void_p]
+        self._glx = glx
+
+    def save(self):
+        glx = self._glx
+        context = glx.glXGetCurrentContext()
+        if not context:
+            return None
+        return (glx.glXGetCurrentDisplay(), glx.glXGetCurrentDrawable(),
+                glx.glXGetCurrentReadDrawable(), context)
+
+    def restore(self, saved):
+        self._glx.glXMakeContextCurrent(*saved)
+
+
+def _context_trackers():
+    trackers = []
+    if sys.platform.startswith("linux"):
+        for kind in (_CurrentEGL, _CurrentGLX):
+            try:
+                trackers.append(kind())
+            except (OSError, AttributeError):
+                pass
+    return trackers
+
+
+_TRACKERS = None
+
+
+@contextmanager
+def using(ctx):
+    """Make Luxel's context current for a block and give the caller's context back after it.
+
+    moderngl's own ``with ctx:`` leaves no context current on exit (EGL), which would pull the
+    rug from under Blender's drawing; on Linux the previous EGL or GLX context is restored."""
+    global _TRACKERS
+    if _TRACKERS is None:
+        _TRACKERS = _context_trackers()
+    saved = [(tracker, tracker.save()) for tracker in _TRACKERS]
+    with ctx:
+        # Rebind the framebuffer that was bound on entry: moderngl rebinds its last-used
+        # framebuffer when it creates another, which fails once that one is released.
+        bound = ctx.detect_framebuffer()
+        try:
+            yield ctx
+        finally:
+            bound.use()
+    for tracker, state in saved:
+        if state is not None:
+            tracker.restore(state)
 
 
 def load_shader(name):

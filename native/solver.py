@@ -20,7 +20,7 @@ import numpy as np
 
 from .atlas import build_atlas
 from .errors import GPUMemoryError, SettingsError
-from .gpu import GLObjects, create_context
+from .gpu import GLObjects, create_context, using
 from .scene import PointLight, SpotLight, SunLight
 
 # Per texel: position+area, normal+size, irradiance, unshot, emission (RGBA32F, 16 B each),
@@ -111,7 +111,7 @@ class Solver:
         try:
             self.ctx = ctx if ctx is not None else create_context()
             self._gl = GLObjects(self.ctx)
-            with self.ctx:
+            with using(self.ctx):
                 self._timed("preprocess", self._preprocess)
         except BaseException:
             self.release()
@@ -123,7 +123,7 @@ class Solver:
         power. Returns False, shooting nothing, once converged or out of shots."""
         if self.converged or self.ctx is None:
             return False
-        with self.ctx:
+        with using(self.ctx):
             power, page, block, total = self._timed("selection", self._select)
             pending = sum(float(np.mean(self._light_power(light))) for light in self._pending)
             self._unshot_fraction = (total + pending) / self._emitted_scalar
@@ -155,12 +155,27 @@ class Solver:
         """Current lightmaps, one float32 (height, width, 4) array per atlas page, row 0 at
         v = 0 as in Blender images. RGB is reflected radiance, alpha 1 on occupied texels;
         the gutter around charts is filled with the neighbouring values (alpha 0)."""
-        with self.ctx:
+        with using(self.ctx):
             return self._timed("postprocess", self._postprocess)
+
+    def texel_samples(self):
+        """Where each texel samples the surface, per page: a dict of (height, width, ...)
+        arrays 'position' (world), 'normal', 'area' (world area the texel covers) and
+        'occupied' (a receiving texel). Row 0 at v = 0, as in result()."""
+        with using(self.ctx):
+            samples = []
+            for page in self._pages:
+                position = self._read(page.textures["position"])
+                albedo = self._read(page.textures["albedo"])
+                samples.append({
+                    "position": position[..., :3], "area": position[..., 3],
+                    "normal": self._read(page.textures["normal"])[..., :3],
+                    "occupied": (position[..., 3] > 0) & (albedo[..., 3] > 0)})
+            return samples
 
     def ledger(self):
         """Energy ledger from the GPU maps (read back, summed in double precision)."""
-        with self.ctx:
+        with using(self.ctx):
             absorbed = np.zeros(3)
             received = np.zeros(3)
             unshot = np.zeros(3)
@@ -180,7 +195,7 @@ class Solver:
     def release(self):
         """Release every GL object (and the context, if the solver made it). Idempotent."""
         if self._gl is not None:
-            with self.ctx:
+            with using(self.ctx):
                 self._gl.release()
             self._gl = None
         if self.ctx is not None and self._owns_context:

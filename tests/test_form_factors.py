@@ -1,0 +1,185 @@
+"""The solver against closed-form radiosity: form factors, the furnace, Blender's lights."""
+import math
+
+import numpy as np
+import pytest
+
+import analytic
+import scenes
+from native import PointLight, Settings, Solver, SpotLight, SunLight
+from native.samples import SceneBuilder
+
+
+def bake(scene, ctx, **settings):
+    solver = Solver(scene, Settings(**settings), ctx=ctx)
+    try:
+        solver.run()
+        return solver.result()[0], solver.texel_samples()[0], solver.progress
+    finally:
+        solver.release()
+
+
+def receiver_texels(samples, z=0.0):
+    """Occupied texels lying on the receiver plane z = 0 (the emitter is black)."""
+    on_plane = samples["occupied"] & (np.abs(samples["position"][..., 2] - z) < 1e-5) \
+        & (samples["normal"][..., 2] > 0.99)
+    return np.nonzero(on_plane)
+
+
+def test_texel_samples_lie_on_their_surface(ctx, gl_clean):
+    """Every occupied texel samples a point of the receiver square, partial ones included."""
+    _, samples, _ = bake(scenes.parallel_squares((1.0, 1.0, 1.0)), ctx, texel_density=16,
+                         max_shots=0)
+    rows, cols = receiver_texels(samples)
+    position = samples["position"][rows, cols]
+    assert len(rows) >= 16 * 16
+    assert (position[:, :2] >= -1e-6).all() and (position[:, :2] <= 1 + 1e-6).all()
+    # The areas of the receiver's texels add up to the square's area exactly.
+    assert samples["area"][rows, cols].sum() == pytest.approx(1.0, rel=1e-4)
+
+
+def test_parallel_squares_match_corner_formula(ctx, gl_clean):
+    radiance = np.array([1.0, 2.0, 0.5])
+    albedo = 0.5
+    image, samples, _ = bake(scenes.parallel_squares(radiance, albedo), ctx, texel_density=16,
+                             threshold=0.001, hemicube_resolution=64)
+    rows, cols = receiver_texels(samples)
+    expected_f = np.array([analytic.parallel_rectangle_form_factor(x, y, 0, 1, 0, 1, 1.0)
+                           for x, y in samples["position"][rows, cols, :2]])
+    measured = image[rows, cols, :3]
+    expected = albedo * radiance * expected_f[:, None]
+    # every texel, border texels included, within 3 %
+    assert np.max(np.abs(measured / expected - 1)) < 0.03
+    # the area mean within 1 % of rho E F(square -> square)
+    area = samples["area"][rows, cols]
+    mean = (measured * area[:, None]).sum(axis=0) / area.sum()
+    truth = albedo * radiance * analytic.parallel_squares_form_factor(1, 1)
+    np.testing.assert_allclose(mean, truth, rtol=0.01)
+
+
+def test_perpendicular_squares_match_common_edge_formula(ctx, gl_clean):
+    radiance = np.array([3.0, 3.0, 3.0])
+    albedo = 0.5
+    image, samples, _ = bake(scenes.perpendicular_squares(radiance, albedo), ctx,
+                             texel_density=16, threshold=0.001, hemicube_resolution=64)
+    rows, cols = receiver_texels(samples)
+    area = samples["area"][rows, cols]
+    measured = image[rows, cols, 0]
+    mean = (measured * area).sum() / area.sum()
+    truth = albedo * radiance[0] * analytic.perpendicular_form_factor(1.0, 1.0)
+    assert mean == pytest.approx(truth, rel=0.02)
+
+    # Texels next to the shared edge (within one texel) stay finite and close to Lambert's
+    # formula at their sample points, where the form factor changes fastest.
+    position = samples["position"][rows, cols]
+    near_edge = position[:, 1] < 1.0 / 16
+    assert near_edge.sum() >= 16
+    wall = [(0, 0, 0), (0, 0, 1), (1, 0, 1), (1, 0, 0)]
+    for point, value in zip(position[near_edge], measured[near_edge]):
+        f = analytic.polygon_form_factor(point, np.array([0.0, 0.0, 1.0]), wall)
+        assert np.isfinite(value)
+        assert value == pytest.approx(albedo * radiance[0] * f, rel=0.10)
+
+
+@pytest.mark.parametrize("albedo", [0.5, 0.9])
+def test_furnace_converges_to_closed_form(ctx, gl_clean, albedo):
+    """Closed cube, uniform emission 1 and albedo rho: reflected radiance rho / (1 - rho)."""
+    image, samples, progress = bake(scenes.furnace_cube(albedo), ctx, texel_density=8,
+                                    shoot_level=2, threshold=0.002, hemicube_resolution=64)
+    assert progress.converged
+    occupied = image[..., 3] == 1
+    assert occupied.sum() == 6 * 8 * 8
+    expected = albedo / (1 - albedo)
+    values = image[occupied][:, :3]
+    assert np.max(np.abs(values / expected - 1)) < 0.01
+
+
+def test_point_light_over_plane_is_cos_over_r_squared(ctx, gl_clean):
+    light = PointLight(position=(0.3, -0.2, 1.0), power=100.0, color=(1.0, 0.5, 0.25))
+    albedo = 0.5
+    image, samples, _ = bake(scenes.plane(2.0, albedo, [light]), ctx, texel_density=12,
+                             max_shots=1)
+    rows, cols = receiver_texels(samples)
+    d = np.asarray(light.position) - samples["position"][rows, cols]
+    r2 = (d * d).sum(axis=1)
+    cos = d[:, 2] / np.sqrt(r2)
+    intensity = light.power * np.asarray(light.color) / (4 * math.pi)
+    expected = albedo / math.pi * intensity[None, :] * (cos / r2)[:, None]
+    np.testing.assert_allclose(image[rows, cols, :3], expected, rtol=0.02)
+
+
+def test_spot_light_follows_blender_cone_and_blend(ctx, gl_clean):
+    spot = SpotLight(position=(0.0, 0.0, 1.0), direction=(0.0, 0.0, -1.0), power=50.0,
+                     spot_size=math.radians(60), spot_blend=0.3)
+    albedo = 0.5
+    image, samples, _ = bake(scenes.plane(3.0, albedo, [spot]), ctx, texel_density=10,
+                             max_shots=1)
+    rows, cols = receiver_texels(samples)
+    d = samples["position"][rows, cols] - np.asarray(spot.position)
+    r2 = (d * d).sum(axis=1)
+    direction = d / np.sqrt(r2)[:, None]
+    cos_axis = direction @ np.array([0.0, 0.0, -1.0])
+    # Blender: smoothstep over a band of (1 - cos(size / 2)) * blend below the cone edge.
+    cos_half = math.cos(math.radians(30))
+    band = (1 - cos_half) * 0.3
+    t = np.clip((cos_axis - cos_half) / band, 0, 1)
+    mask = np.where(cos_axis > cos_half, t * t * (3 - 2 * t), 0.0)
+    expected = albedo / math.pi * spot.power / (4 * math.pi) * mask * cos_axis / r2
+    measured = image[rows, cols, 0]
+    inside = mask > 0.999
+    outside = cos_axis < cos_half - 0.02
+    assert inside.sum() > 20 and outside.sum() > 20
+    np.testing.assert_allclose(measured[inside], expected[inside], rtol=0.02)
+    assert np.all(measured[outside] == 0.0)
+    band_texels = (mask > 0.05) & (mask < 0.95)
+    assert band_texels.sum() > 5
+    np.testing.assert_allclose(measured[band_texels], expected[band_texels], rtol=0.15, atol=1e-3)
+
+
+def test_sun_lights_by_cosine_and_casts_a_sharp_shadow(ctx, gl_clean):
+    """Sun tilted 30 degrees: lit texels get rho S cos / pi; a square blocker 0.5 m above the
+    plane casts its shadow shifted by 0.5 tan(30 degrees)."""
+    angle = math.radians(30)
+    sun = SunLight(direction=(math.sin(angle), 0.0, -math.cos(angle)), strength=3.0)
+    builder = SceneBuilder().quad("plane", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)],
+                                  (0.5, 0.5, 0.5))
+    builder.quad("blocker", [(-0.25, -0.25, 0.5), (-0.25, 0.25, 0.5), (0.25, 0.25, 0.5),
+                             (0.25, -0.25, 0.5)], (0.5, 0.5, 0.5), receive=False)
+    image, samples, _ = bake(builder.build([sun]), ctx, texel_density=16, max_shots=1,
+                             hemicube_resolution=256)
+    rows, cols = receiver_texels(samples)
+    position = samples["position"][rows, cols]
+    measured = image[rows, cols, 0]
+    shift = 0.5 * math.tan(angle)
+    x, y = position[:, 0] - shift, position[:, 1]
+    margin = 0.1
+    in_shadow = (np.abs(x) < 0.25 - margin) & (np.abs(y) < 0.25 - margin)
+    lit = (np.abs(x) > 0.25 + margin) | (np.abs(y) > 0.25 + margin)
+    assert in_shadow.sum() > 4
+    assert np.all(measured[in_shadow] == 0.0)
+    np.testing.assert_allclose(measured[lit], 0.5 * 3.0 * math.cos(angle) / math.pi, rtol=0.01)
+
+
+def test_partly_covered_texels_along_a_diagonal_edge_have_no_dark_rim(ctx, gl_clean):
+    """A right-triangle receiver: texels cut by its hypotenuse sample inside the triangle and
+    match the corner formula like interior texels do."""
+    from native import Scene
+    vertices = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 1, 1), (1, 1, 1), (1, 0, 1)]
+    triangles = [(0, 1, 2), (3, 4, 5), (3, 5, 6)]
+    scene = Scene(vertices=np.array(vertices, float), triangles=np.array(triangles),
+                  albedo=np.array([(0.5,) * 3, (0,) * 3, (0,) * 3]),
+                  emission=np.array([(0,) * 3, (1,) * 3, (1,) * 3]),
+                  emission_two_sided=np.array([True, False, False]),
+                  object_index=np.array([0, 1, 1]), object_names=["triangle", "emitter"])
+    image, samples, _ = bake(scene, ctx, texel_density=20, threshold=0.001)
+    rows, cols = receiver_texels(samples)
+    position = samples["position"][rows, cols]
+    area = samples["area"][rows, cols]
+    assert area.sum() == pytest.approx(0.5, rel=1e-4)
+    partial = area < 0.99 * area.max()
+    assert partial.sum() >= 15
+    assert (position[:, 0] + position[:, 1] <= 1 + 1e-5).all()
+    expected = np.array([0.5 * analytic.parallel_rectangle_form_factor(x, y, 0, 1, 0, 1, 1.0)
+                         for x, y in position[:, :2]])
+    measured = image[rows, cols, 0]
+    assert np.max(np.abs(measured[partial] / expected[partial] - 1)) < 0.03

@@ -1,0 +1,203 @@
+"""The progressive API: energy ledger, progress, GL hygiene, pages, textures, gutters."""
+import math
+import subprocess
+import sys
+
+import moderngl
+import numpy as np
+import pytest
+
+import scenes
+from conftest import ROOT
+from native import PointLight, Settings, Solver, SpotLight, SunLight
+from native.samples import SceneBuilder, cornell_box
+
+
+def lit_cornell_box():
+    """The Cornell box plus one light of each point-like kind."""
+    scene = cornell_box()
+    scene.lights = [
+        PointLight(position=(0.2, 0.4, 0.2), power=5.0, color=(1.0, 0.9, 0.8)),
+        SpotLight(position=(0.4, 0.5, 0.1), direction=(0.0, -1.0, 0.3), power=8.0,
+                  spot_size=math.radians(50), spot_blend=0.2),
+        SunLight(direction=(0.2, -0.3, 1.0), strength=2.0),
+    ]
+    return scene
+
+
+def test_ledger_balances_and_unshot_never_grows(ctx, gl_clean):
+    solver = Solver(lit_cornell_box(), Settings(texel_density=25, hemicube_resolution=32,
+                                                max_shots=60), ctx=ctx)
+    try:
+        previous_unshot = np.inf
+        previous_absorbed = np.zeros(3)
+        steps = 0
+        while True:
+            ledger = solver.ledger()
+            assert ledger.imbalance() < 1e-4
+            for value in (ledger.absorbed, ledger.escaped, ledger.unshot):
+                assert np.isfinite(value).all()
+            total_unshot = ledger.unshot.sum()
+            assert total_unshot <= previous_unshot * (1 + 1e-6)
+            assert (ledger.absorbed >= previous_absorbed - 1e-9).all()
+            assert (ledger.escaped >= -1e-6 * ledger.emitted).all()
+            previous_unshot, previous_absorbed = total_unshot, ledger.absorbed
+            if not solver.step():
+                break
+            steps += 1
+        assert steps == 60
+        progress = solver.progress
+        assert progress.shots == 60 and 0.0 < progress.unshot_fraction < 1.0
+        images = solver.result()
+        assert all(np.isfinite(image).all() for image in images)
+    finally:
+        solver.release()
+
+
+def test_unshot_fraction_matches_ledger_and_threshold_stops(ctx, gl_clean):
+    solver = Solver(cornell_box(), Settings(texel_density=20, hemicube_resolution=32,
+                                            threshold=0.3), ctx=ctx)
+    try:
+        progress = solver.run()
+        ledger = solver.ledger()
+        assert progress.converged and progress.unshot_fraction <= 0.3
+        assert progress.unshot_fraction == pytest.approx(ledger.unshot.mean() / ledger.emitted.mean(),
+                                                         rel=1e-3)
+        assert not solver.step()
+    finally:
+        solver.release()
+
+
+def test_every_gl_object_is_released(ctx, gl_clean):
+    solver = Solver(lit_cornell_box(), Settings(texel_density=10, max_shots=5), ctx=ctx)
+    solver.run()
+    solver.result()
+    made = list(solver._gl._objects)
+    assert len(made) > 20
+    solver.release()
+    assert solver.gl_object_count == 0
+    assert all(type(obj.mglo).__name__ == "InvalidObject" for obj in made)
+    solver.release()  # idempotent
+
+
+def test_setup_failing_halfway_releases_what_it_made(ctx, gl_clean, monkeypatch):
+    made = []
+    original = Solver._measure_emission
+
+    def fail(self):
+        made.extend(self._gl._objects)
+        raise RuntimeError("simulated failure after allocation")
+
+    monkeypatch.setattr(Solver, "_measure_emission", fail)
+    with pytest.raises(RuntimeError, match="simulated"):
+        Solver(cornell_box(), Settings(texel_density=10), ctx=ctx)
+    assert len(made) > 20
+    assert all(type(obj.mglo).__name__ == "InvalidObject" for obj in made)
+    monkeypatch.setattr(Solver, "_measure_emission", original)
+
+
+def test_own_context_is_created_and_released():
+    solver = Solver(scenes.furnace_cube(0.5), Settings(texel_density=4, max_shots=3))
+    ctx = solver.ctx
+    solver.run()
+    with ctx:
+        assert ctx.error == "GL_NO_ERROR"
+    solver.release()
+    assert solver.ctx is None
+
+
+def test_bake_restores_the_callers_current_context(ctx):
+    """Inside Blender another context is current; the solver must hand it back."""
+    other = moderngl.create_standalone_context(backend="egl")
+    try:
+        with other:
+            solver = Solver(scenes.furnace_cube(0.5), Settings(texel_density=4, max_shots=3), ctx=ctx)
+            solver.run()
+            framebuffer = other.simple_framebuffer((4, 4))
+            framebuffer.use()
+            framebuffer.clear(0.25, 0.5, 0.75, 1.0)
+            pixel = np.frombuffer(framebuffer.read(components=4), dtype=np.uint8)[:4]
+            assert pixel.tolist() == [64, 128, 191, 255]
+            solver.release()
+            framebuffer.release()
+    finally:
+        other.release()
+
+
+def test_several_atlas_pages_conserve_energy(ctx, gl_clean):
+    """A small maximum page size spreads the furnace over pages; the answer is unchanged."""
+    solver = Solver(scenes.furnace_cube(0.5), Settings(texel_density=8, max_atlas_size=24,
+                                                       shoot_level=2, threshold=0.002,
+                                                       hemicube_resolution=64), ctx=ctx)
+    try:
+        assert solver.atlas.page_count > 1
+        solver.run()
+        images = solver.result()
+        assert len(images) == solver.atlas.page_count
+        values = np.concatenate([image[image[..., 3] == 1][:, :3] for image in images])
+        assert len(values) == 6 * 8 * 8
+        assert np.max(np.abs(values - 1.0)) < 0.01
+        assert solver.ledger().imbalance() < 1e-4
+    finally:
+        solver.release()
+
+
+def test_albedo_texture_is_sampled_through_its_uvs(ctx, gl_clean):
+    """Under a sun, a receiver textured half dark, half bright reflects rho(u) S / pi."""
+    builder = SceneBuilder().quad("plane", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)],
+                                  (1.0 - 1e-6,) * 3)
+    scene = builder.build([SunLight(direction=(0, 0, -1), strength=2.0)])
+    texture = np.zeros((4, 4, 3))
+    texture[:, :2] = 0.2   # u < 0.5
+    texture[:, 2:] = 0.8   # u >= 0.5
+    scene.albedo_textures = [texture]
+    scene.albedo_texture_index = np.zeros(len(scene.triangles), dtype=np.int64)
+    scene.albedo_uv = scene.vertices[scene.triangles][..., :2]
+    scene.__post_init__()
+    solver = Solver(scene, Settings(texel_density=16, max_shots=1), ctx=ctx)
+    try:
+        solver.run()
+        image = solver.result()[0]
+        samples = solver.texel_samples()[0]
+    finally:
+        solver.release()
+    occupied = samples["occupied"]
+    x = samples["position"][..., 0][occupied]
+    value = image[..., 0][occupied]
+    expected = 2.0 / math.pi
+    # Texel centres of the 4-texel-wide texture are at u = 1/8, 3/8, 5/8, 7/8; between them
+    # the lookup is bilinear (and wraps around at the border, as Blender's Repeat does).
+    dark = (x > 1 / 8) & (x < 3 / 8)
+    bright = (x > 5 / 8) & (x < 7 / 8)
+    assert dark.sum() > 10 and bright.sum() > 10
+    np.testing.assert_allclose(value[dark], 0.2 * expected, rtol=1e-3)
+    np.testing.assert_allclose(value[bright], 0.8 * expected, rtol=1e-3)
+
+
+def test_gutter_texels_are_filled_from_their_chart(ctx, gl_clean):
+    solver = Solver(cornell_box(), Settings(texel_density=20, max_shots=10, padding=2), ctx=ctx)
+    try:
+        solver.run()
+        image = solver.result()[0]
+    finally:
+        solver.release()
+    occupied = image[..., 3] == 1
+    lit = occupied & (image[..., :3].sum(axis=2) > 0)
+    # every empty texel touching a lit texel carries a value, so bilinear lookups at chart
+    # borders never blend in black
+    padded = np.pad(lit, 1)
+    height, width = lit.shape
+    neighbours = np.zeros_like(lit)
+    for dy in (0, 1, 2):
+        for dx in (0, 1, 2):
+            neighbours |= padded[dy:dy + height, dx:dx + width]
+    gutter = neighbours & ~occupied
+    assert gutter.sum() > 50
+    assert np.all(image[gutter][:, :3].sum(axis=1) > 0)
+
+
+def test_native_never_imports_bpy():
+    code = "import sys, native; assert 'bpy' not in sys.modules; print('ok')"
+    result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "ok"
