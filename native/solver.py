@@ -285,23 +285,38 @@ class Solver:
                                                  np.zeros(3))
         self._emitted_scalar = float(np.mean(self._emitted))
 
-    def _check_memory(self):
-        atlas = self.atlas
+    def _memory_needed(self, atlas):
         texels = atlas.width * atlas.height * atlas.page_count
         block = 1 << self.settings.shoot_level
         pyramid = texels / (block * block) * 16 * 4 / 3
         visibility = self.settings.hemicube_resolution ** 2 * 6 * 4
-        self._memory_bytes = int(texels * BYTES_PER_TEXEL + pyramid + visibility)
-        limit = int(self.settings.memory_limit)
+        return int(texels * BYTES_PER_TEXEL + pyramid + visibility)
+
+    def _fits(self, atlas):
         max_size = self.ctx.info["GL_MAX_TEXTURE_SIZE"]
-        if self._memory_bytes > limit or max(atlas.width, atlas.height) > max_size:
-            scale = math.sqrt(max(limit - visibility, 1) / (self._memory_bytes - visibility))
-            density = atlas.density * min(scale, max_size / max(atlas.width, atlas.height)) * 0.9
-            raise GPUMemoryError(
-                f"the lightmaps need {self._memory_bytes / 2**20:.0f} MiB of GPU memory "
-                f"({texels} texels on {atlas.page_count} page(s) of {atlas.width}x{atlas.height}) "
-                f"but {limit / 2**20:.0f} MiB are available: lower the texel density to about "
-                f"{density:.3g} texels per metre", self._memory_bytes, limit, density)
+        return (self._memory_needed(atlas) <= self.settings.memory_limit
+                and max(atlas.width, atlas.height) <= max_size)
+
+    def _check_memory(self):
+        atlas = self.atlas
+        self._memory_bytes = self._memory_needed(atlas)
+        if self._fits(atlas):
+            return
+        # Texels scale with the square of the density; padding does not, so search down.
+        limit = int(self.settings.memory_limit)
+        density = atlas.density * math.sqrt(limit / self._memory_bytes)
+        for _ in range(12):
+            candidate = build_atlas(self.scene, density, self.settings.max_atlas_size,
+                                    self.settings.padding)
+            if self._fits(candidate):
+                break
+            density *= 0.85
+        raise GPUMemoryError(
+            f"the lightmaps need {self._memory_bytes / 2**20:.1f} MiB of GPU memory "
+            f"({atlas.width}x{atlas.height} texels on {atlas.page_count} page(s)) but "
+            f"{limit / 2**20:.1f} MiB are allowed: lower the texel density from "
+            f"{atlas.density:.4g} to {density:.4g} texels per metre or less",
+            self._memory_bytes, limit, density)
 
     def _allocate_page(self, size):
         gl = self._gl

@@ -115,9 +115,9 @@ def test_bake_restores_the_callers_current_context(ctx):
             solver.run()
             framebuffer = other.simple_framebuffer((4, 4))
             framebuffer.use()
-            framebuffer.clear(0.25, 0.5, 0.75, 1.0)
+            framebuffer.clear(0.0, 1.0, 0.2, 1.0)
             pixel = np.frombuffer(framebuffer.read(components=4), dtype=np.uint8)[:4]
-            assert pixel.tolist() == [64, 128, 191, 255]
+            assert pixel.tolist() == [0, 255, 51, 255]
             solver.release()
             framebuffer.release()
     finally:

@@ -1,0 +1,142 @@
+"""Bad input gets a typed error naming the object and the fix; output files are sound."""
+import os
+
+import numpy as np
+import pytest
+
+import scenes
+from native import (GLUnavailableError, GPUMemoryError, PointLight, Scene, SceneError,
+                    Settings, SettingsError, Solver, SpotLight, read_exr, tone_map, write_exr,
+                    write_png)
+from native.samples import SceneBuilder, cornell_box
+
+
+def two_quads(**overrides):
+    builder = SceneBuilder()
+    builder.quad("Floor", scenes.RECEIVER, (0.5, 0.5, 0.5))
+    builder.quad("Lamp", scenes.CEILING, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    scene = builder.build()
+    fields = dict(vertices=scene.vertices, triangles=scene.triangles, albedo=scene.albedo,
+                  emission=scene.emission, object_index=scene.object_index,
+                  object_names=scene.object_names)
+    fields.update(overrides)
+    return fields
+
+
+def test_nan_vertex_names_the_object():
+    fields = two_quads()
+    fields["vertices"] = fields["vertices"].copy()
+    fields["vertices"][5, 1] = np.nan
+    with pytest.raises(SceneError, match="Lamp") as error:
+        Scene(**fields)
+    assert error.value.object_name == "Lamp"
+    assert "not finite" in str(error.value)
+
+
+def test_albedo_of_one_or_more_is_refused_with_the_fix():
+    fields = two_quads()
+    fields["albedo"] = fields["albedo"].copy()
+    fields["albedo"][0] = (1.0, 0.5, 0.5)
+    with pytest.raises(SceneError, match=r"Floor.*below 1"):
+        Scene(**fields)
+
+
+def test_degenerate_triangle_is_refused():
+    fields = two_quads()
+    fields["vertices"] = fields["vertices"].copy()
+    triangle = fields["triangles"][2]
+    fields["vertices"][triangle[2]] = fields["vertices"][triangle[1]]
+    with pytest.raises(SceneError, match="degenerate"):
+        Scene(**fields)
+
+
+def test_scene_without_light_is_refused():
+    fields = two_quads(emission=np.zeros((4, 3)))
+    with pytest.raises(SceneError, match="no light"):
+        Scene(**fields)
+    fields["lights"] = [PointLight(position=(0, 0, 1), power=0.0)]
+    with pytest.raises(SceneError, match="no light"):
+        Scene(**fields)
+
+
+def test_negative_emission_and_bad_lights_are_refused():
+    with pytest.raises(SceneError, match="negative"):
+        Scene(**two_quads(emission=-np.ones((4, 3))))
+    with pytest.raises(SceneError, match="Spotty"):
+        Scene(**two_quads(lights=[SpotLight(position=(0, 0, 1), direction=(0, 0, 0),
+                                            power=1.0, name="Spotty")]))
+
+
+def test_bad_settings_are_refused(ctx):
+    scene = Scene(**two_quads())
+    with pytest.raises(SettingsError, match="texel density"):
+        Solver(scene, Settings(texel_density=0.0), ctx=ctx)
+    with pytest.raises(SettingsError, match="shoot_level"):
+        Solver(scene, Settings(shoot_level=9), ctx=ctx)
+
+
+def test_too_many_texels_reports_memory_and_a_density_that_fits(ctx, gl_clean):
+    scene = cornell_box()
+    limit = 2 << 20
+    with pytest.raises(GPUMemoryError) as error:
+        Solver(scene, Settings(texel_density=400.0, memory_limit=limit), ctx=ctx)
+    assert error.value.needed_bytes > limit == error.value.available_bytes
+    assert "texels per metre" in str(error.value)
+    suggested = error.value.suggested_density
+    assert 0 < suggested < 400
+    solver = Solver(scene, Settings(texel_density=suggested, memory_limit=limit), ctx=ctx)
+    assert solver.gpu_memory_bytes <= limit
+    solver.release()
+
+
+def test_no_opengl_says_what_to_install(monkeypatch):
+    import moderngl
+
+    def no_driver(*args, **kwargs):
+        raise Exception("libEGL.so: cannot open shared object file")
+
+    monkeypatch.setattr(moderngl, "create_standalone_context", no_driver)
+    with pytest.raises(GLUnavailableError, match="Mesa"):
+        Solver(Scene(**two_quads()))
+
+
+def test_exr_round_trip_and_atomic_write(tmp_path):
+    image = np.random.default_rng(1).random((7, 11, 4)).astype(np.float32) * 50
+    path = tmp_path / "page0.exr"
+    write_exr(path, image)
+    np.testing.assert_array_equal(read_exr(path), image)
+    assert os.listdir(tmp_path) == ["page0.exr"]
+
+
+def test_failed_write_leaves_no_file(tmp_path, monkeypatch):
+    import OpenEXR
+
+    class Broken:
+        def __init__(self, *args):
+            pass
+
+        def write(self, name):
+            open(name, "wb").write(b"partial")
+            raise OSError("No space left on device")
+
+    monkeypatch.setattr(OpenEXR, "File", Broken)
+    with pytest.raises(OSError, match="space"):
+        write_exr(tmp_path / "page0.exr", np.zeros((2, 2, 4), np.float32))
+    assert os.listdir(tmp_path) == []
+
+
+def test_png_preview_is_a_valid_image(tmp_path):
+    import zlib
+    image = np.zeros((3, 5, 4), np.float32)
+    image[0, 0, :3] = 100.0
+    rgb = tone_map(image)
+    assert rgb.shape == (3, 5, 3) and rgb.dtype == np.uint8
+    assert rgb[0, 0].min() > 200 and rgb[1, 1].max() == 0
+    path = tmp_path / "preview.png"
+    write_png(path, rgb)
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    idat = data.index(b"IDAT")
+    length = int.from_bytes(data[idat - 4:idat], "big")
+    raw = zlib.decompress(data[idat + 4:idat + 4 + length])
+    assert len(raw) == 3 * (1 + 5 * 3)
