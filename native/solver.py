@@ -81,6 +81,18 @@ class Ledger:
 
 
 @dataclass
+class _Shooter:
+    page: object
+    texels: np.ndarray          # (N, 2) texels whose unshot energy this shot takes
+    centre: np.ndarray
+    frame: np.ndarray           # columns t, b, n
+    area: float
+    quad: list                  # 4 world-space corners
+    radiance_front: np.ndarray
+    radiance_back: np.ndarray
+
+
+@dataclass
 class _Page:
     attributes: object      # framebuffer: position, normal, tangent, albedo, emission (+depth)
     receivers: object       # framebuffer: irradiance, unshot
@@ -135,7 +147,7 @@ class Solver:
             if self._pending:
                 self._shoot_light(self._pending.pop(0))
             else:
-                self._shoot_patch(page, block)
+                self._shoot_patch(self._timed("selection", self._gather_shooter, page, block))
             self.shots += 1
         return True
 
@@ -460,17 +472,20 @@ class Solver:
         return best[0], best[1], best[2], total
 
     # ----------------------------------------------------------------- shooting
-    def _shoot_patch(self, page_index, block):
+    def _gather_shooter(self, page_index, block):
+        """Read back the chosen block's texels and make the shooter: the coplanar part of the
+        block around its strongest texel (blocks at coarse levels may also hold texels of
+        other charts, which keep their energy)."""
         page = self._pages[page_index]
         size = 1 << self.settings.shoot_level
         x0, y0 = block[0] * size, block[1] * size
         width, height = min(size, self.atlas.width - x0), min(size, self.atlas.height - y0)
         viewport = (x0, y0, width, height)
-        read = lambda fbo, attachment: np.frombuffer(
-            fbo.read(viewport=viewport, components=4, attachment=attachment, dtype="f4"),
-            dtype="f4").reshape(-1, 4).astype(np.float64)
-        position, normal, tangent = (read(page.attributes, i) for i in range(3))
-        emission = read(page.attributes, 4)
+
+        def read(fbo, attachment):
+            data = fbo.read(viewport=viewport, components=4, attachment=attachment, dtype="f4")
+            return np.frombuffer(data, dtype="f4").reshape(-1, 4).astype(np.float64)
+        position, normal, tangent, emission = (read(page.attributes, i) for i in (0, 1, 2, 4))
         unshot = read(page.receivers, 1)
 
         area = position[:, 3]
@@ -479,52 +494,42 @@ class Solver:
         power = (front + back).mean(axis=1) * area
         strongest = int(np.argmax(power))
         n0, p0 = normal[strongest, :3], position[strongest, :3]
-        # A shooter is the coplanar part of its block around the strongest texel: blocks at
-        # coarse levels may also hold texels of other charts, which keep their energy.
         coplanar = ((power > 0.0) & (normal[:, :3] @ n0 > 0.95)
                     & (np.abs((position[:, :3] - p0) @ n0) <= 0.25 * size * normal[strongest, 3]))
         members = np.nonzero(coplanar)[0]
-        weights = area[members]
-        total_area = weights.sum()
-        radiance_front = (front[members] * weights[:, None]).sum(axis=0) / total_area
-        radiance_back = (back[members] * weights[:, None]).sum(axis=0) / total_area
-        centre = (position[members, :3] * weights[:, None]).sum(axis=0) / total_area
-        n = (normal[members, :3] * weights[:, None]).sum(axis=0)
+        weights = area[members, None]
+        total_area = float(weights.sum())
+        centre = (position[members, :3] * weights).sum(axis=0) / total_area
+        n = (normal[members, :3] * weights).sum(axis=0)
         n /= np.linalg.norm(n)
         t = tangent[strongest, :3] - n * (tangent[strongest, :3] @ n)
         t /= np.linalg.norm(t)
         b = np.cross(n, t)
-        quad = self._shooter_quad(position[members, :3] - centre, normal[members, 3], t, b,
-                                  total_area, centre)
-        self._shot_power = self._shot_power + math.pi * total_area * (radiance_front + radiance_back)
+        return _Shooter(
+            page=page, texels=np.stack([members % width + x0, members // width + y0], axis=1),
+            centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area,
+            quad=_shooter_quad(position[members, :3] - centre, normal[members, 3], t, b,
+                               total_area, centre),
+            radiance_front=(front[members] * weights).sum(axis=0) / total_area,
+            radiance_back=(back[members] * weights).sum(axis=0) / total_area)
 
-        two_sided = radiance_back.sum() > 0.0
-        eye = centre if two_sided else centre + n * self._epsilon
-        frame = np.stack([t, b, n], axis=1)
-        self._timed("visibility", self._render_visibility, eye, frame, 6 if two_sided else 5,
-                    not two_sided, False)
-
-        texel_x = members % width + x0
-        texel_y = members // width + y0
-        self._clear_texels(page, np.stack([texel_x, texel_y], axis=1))
+    def _shoot_patch(self, shooter):
+        self._shot_power = self._shot_power + math.pi * shooter.area * (
+            shooter.radiance_front + shooter.radiance_back)
+        two_sided = shooter.radiance_back.sum() > 0.0
+        normal = shooter.frame[:, 2]
+        # A one-sided shooter looks from just above its surface and clips what lies behind
+        # it; a two-sided one looks both ways from the surface itself.
+        eye = shooter.centre if two_sided else shooter.centre + normal * self._epsilon
+        self._timed("visibility", self._render_visibility, eye, shooter.frame,
+                    6 if two_sided else 5, not two_sided, False)
+        self._clear_texels(shooter.page, shooter.texels)
         program = self._programs["patch"]
-        _set(program, "u_quad", [tuple(corner) for corner in quad])
-        _set(program, "u_centre", tuple(centre))
-        _set(program, "u_radiance_front", tuple(radiance_front))
-        _set(program, "u_radiance_back", tuple(radiance_back))
+        _set(program, "u_quad", [tuple(corner) for corner in shooter.quad])
+        _set(program, "u_centre", tuple(shooter.centre))
+        _set(program, "u_radiance_front", tuple(shooter.radiance_front))
+        _set(program, "u_radiance_back", tuple(shooter.radiance_back))
         self._timed("receivers", self._update_receivers, "patch")
-
-    @staticmethod
-    def _shooter_quad(offsets, texel_sizes, t, b, area, centre):
-        """Rectangle in the shooter's plane spanning its texels, scaled to their exact area."""
-        u, v = offsets @ t, offsets @ b
-        half = 0.5 * texel_sizes
-        u0, u1 = (u - half).min(), (u + half).max()
-        v0, v1 = (v - half).min(), (v + half).max()
-        scale = math.sqrt(area / max((u1 - u0) * (v1 - v0), 1e-30))
-        hu, hv = 0.5 * (u1 - u0) * scale, 0.5 * (v1 - v0) * scale
-        return [centre + sx * hu * t + sy * hv * b
-                for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
 
     def _shoot_light(self, light):
         program = self._programs["light"]
@@ -659,6 +664,18 @@ class Solver:
         finally:
             self._finish()
             self.timings[phase] += time.perf_counter() - start
+
+
+def _shooter_quad(offsets, texel_sizes, t, b, area, centre):
+    """Rectangle in the shooter's plane spanning its texels, scaled to their exact area."""
+    u, v = offsets @ t, offsets @ b
+    half = 0.5 * texel_sizes
+    u0, u1 = (u - half).min(), (u + half).max()
+    v0, v1 = (v - half).min(), (v + half).max()
+    scale = math.sqrt(area / max((u1 - u0) * (v1 - v0), 1e-30))
+    hu, hv = 0.5 * (u1 - u0) * scale, 0.5 * (v1 - v0) * scale
+    return [centre + sx * hu * t + sy * hv * b
+            for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
 
 
 def _buffer_content(program, vbo, layout):
