@@ -21,11 +21,11 @@ import numpy as np
 from .atlas import build_atlas
 from .errors import GPUMemoryError, SettingsError
 from .gpu import GLObjects, create_context, using
-from .scene import PointLight, SpotLight, SunLight
+from .scene import SpotLight, SunLight
 
 # Per texel: position+area, normal+size, irradiance, unshot, emission (RGBA32F, 16 B each),
-# tangent and albedo (RGBA16F, 8 B each).
-BYTES_PER_TEXEL = 5 * 16 + 2 * 8
+# tangent and albedo (RGBA16F, 8 B each), the rasterization depth (4 B).
+BYTES_PER_TEXEL = 5 * 16 + 2 * 8 + 4
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
                  ("in_albedo", 3), ("in_emission", 4), ("in_receive", 1))
 PHASES = ("preprocess", "selection", "visibility", "receivers", "postprocess")
@@ -62,7 +62,8 @@ class Progress:
     shots: int
     unshot_fraction: float   # measured before the latest shot
     seconds: float
-    converged: bool
+    converged: bool          # the unshot fraction reached the threshold (or nothing is left)
+    finished: bool           # converged, or stopped at max_shots
     texels: int
 
 
@@ -114,6 +115,7 @@ class Solver:
         self.timings = dict.fromkeys(PHASES, 0.0)
         self.shots = 0
         self.converged = False
+        self.finished = False
         self._unshot_fraction = 1.0
         self._shot_power = np.zeros(3)
         self._owns_context = ctx is None
@@ -133,16 +135,16 @@ class Solver:
     def step(self):
         """Shoot once: the pending lights first, then the texel patch with the most unshot
         power. Returns False, shooting nothing, once converged or out of shots."""
-        if self.converged or self.ctx is None:
+        if self.finished or self.ctx is None:
             return False
         with using(self.ctx):
             power, page, block, total = self._timed("selection", self._select)
             pending = sum(float(np.mean(self._light_power(light))) for light in self._pending)
             self._unshot_fraction = (total + pending) / self._emitted_scalar
-            if (self._unshot_fraction <= self.settings.threshold
-                    or self.shots >= self.settings.max_shots
-                    or (not self._pending and power <= 0.0)):
-                self.converged = True
+            self.converged = (self._unshot_fraction <= self.settings.threshold
+                              or (not self._pending and power <= 0.0))
+            if self.converged or self.shots >= self.settings.max_shots:
+                self.finished = True
                 return False
             if self._pending:
                 self._shoot_light(self._pending.pop(0))
@@ -152,7 +154,7 @@ class Solver:
         return True
 
     def run(self, callback=None):
-        """Step until converged; ``callback(progress)`` after each shot may return False to stop."""
+        """Step until finished; ``callback(progress)`` after each shot may return False to stop."""
         while self.step():
             if callback is not None and callback(self.progress) is False:
                 break
@@ -161,7 +163,7 @@ class Solver:
     @property
     def progress(self):
         return Progress(self.shots, self._unshot_fraction, time.perf_counter() - self._started,
-                        self.converged, self.texel_count)
+                        self.converged, self.finished, self.texel_count)
 
     def result(self):
         """Current lightmaps, one float32 (height, width, 4) array per atlas page, row 0 at
@@ -432,17 +434,17 @@ class Solver:
             self._fullscreen["init"].render(moderngl.TRIANGLES, vertices=3)
 
     def _measure_emission(self):
+        """Emitted power as the texels hold it (the unshot maps start as the emission, with
+        the back face of two-sided emitters pending), summed in double precision."""
         self._emitted_maps = np.zeros(3)
         self._texel_count = 0
         for page in self._pages:
-            position = self._read(page.textures["position"])
-            albedo = self._read(page.textures["albedo"])
-            unshot = self._read(page.textures["unshot"])
+            area = self._read(page.textures["position"])[..., 3:4]
             emission = self._read(page.textures["emission"])
-            area = position[..., 3:4]
-            radiance = unshot[..., :3] + unshot[..., 3:4] * emission[..., :3]
-            self._emitted_maps += math.pi * (radiance * area).reshape(-1, 3).sum(axis=0)
-            self._texel_count += int(np.count_nonzero((area[..., 0] > 0) & (albedo[..., 3] > 0)))
+            receives = self._read(page.textures["albedo"])[..., 3]
+            sides = 1.0 + emission[..., 3:4]
+            self._emitted_maps += math.pi * (emission[..., :3] * sides * area).reshape(-1, 3).sum(axis=0)
+            self._texel_count += int(np.count_nonzero((area[..., 0] > 0) & (receives > 0)))
 
     # ----------------------------------------------------------------- selection
     def _select(self):

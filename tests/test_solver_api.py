@@ -48,6 +48,7 @@ def test_ledger_balances_and_unshot_never_grows(ctx, gl_clean):
         assert steps == 60
         progress = solver.progress
         assert progress.shots == 60 and 0.0 < progress.unshot_fraction < 1.0
+        assert progress.finished and not progress.converged
         images = solver.result()
         assert all(np.isfinite(image).all() for image in images)
     finally:
