@@ -685,7 +685,7 @@ def _buffer_content(program, vbo, layout):
     compiler removed as unused."""
     formats, names = [], []
     for name, count in layout:
-        if name in program:
+        if program.get(name, None) is not None:
             formats.append(f"{count}f")
             names.append(name)
         else:
@@ -695,8 +695,9 @@ def _buffer_content(program, vbo, layout):
 
 def _set(program, name, value):
     """Set a uniform unless the compiler removed it as unused (drivers differ)."""
-    if name in program:
-        program[name].value = value
+    uniform = program.get(name, None)
+    if uniform is not None:
+        uniform.value = value
 
 
 def _frame_around(n):
