@@ -30,19 +30,14 @@ class PointLight:
 
 
 @dataclass
-class SpotLight:
+class SpotLight(PointLight):
     """Blender spot light: a point light's intensity cut to a cone of full angle ``spot_size``
-    (radians) with Blender's ``spot_blend`` soft edge; the power is not concentrated."""
-    position: tuple
-    direction: tuple
-    power: float
+    (radians) around ``direction`` with Blender's ``spot_blend`` soft edge; the power is not
+    concentrated into the cone."""
+    direction: tuple = (0.0, 0.0, -1.0)
     spot_size: float = math.radians(45.0)
     spot_blend: float = 0.15
-    color: tuple = (1.0, 1.0, 1.0)
     name: str = "Spot"
-
-    def intensity(self):
-        return self.power * _vec3(self.color, "color") / (4.0 * math.pi)
 
     def cos_half_angle(self):
         return math.cos(min(self.spot_size, math.pi) * 0.5)
@@ -232,7 +227,7 @@ class Scene:
         sides = np.where(self.emission_two_sided, 2.0, 1.0)
         total = (math.pi * self.emission * (self.triangle_area * sides)[:, None]).sum(axis=0)
         for light in self.lights:
-            if isinstance(light, (PointLight, SpotLight)):
+            if isinstance(light, PointLight):
                 total = total + light.emitted_power()
         return total
 
