@@ -140,3 +140,12 @@ def test_png_preview_is_a_valid_image(tmp_path):
     length = int.from_bytes(data[idat - 4:idat], "big")
     raw = zlib.decompress(data[idat + 4:idat + 4 + length])
     assert len(raw) == 3 * (1 + 5 * 3)
+
+
+def test_written_files_get_the_usual_permissions(tmp_path):
+    umask = os.umask(0o022)
+    try:
+        write_exr(tmp_path / "page0.exr", np.zeros((2, 2, 4), np.float32))
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "page0.exr").stat().st_mode & 0o777 == 0o644
