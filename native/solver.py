@@ -37,7 +37,7 @@ class Settings:
     max_atlas_size: int = 4096       # largest page side; more pages when exceeded
     padding: int = 2                 # texels between charts
     hemicube_resolution: int = 128   # texels on a side of each visibility face
-    shoot_level: int = 0             # mip level shot from: a shooter spans 2^level texels
+    shoot_level: int = 2             # mip level shot from: a shooter spans 2^level texels
     threshold: float = 0.01          # stop when this fraction of the emitted power is unshot
     max_shots: int = 10000           # stop after this many shots
     memory_limit: int = 4 << 30      # bytes of GPU memory Luxel may use

@@ -183,3 +183,55 @@ def test_partly_covered_texels_along_a_diagonal_edge_have_no_dark_rim(ctx, gl_cl
                          for x, y in position[:, :2]])
     measured = image[rows, cols, 0]
     assert np.max(np.abs(measured[partial] / expected[partial] - 1)) < 0.03
+
+
+def test_two_sided_emitter_lights_both_sides_one_sided_only_its_front(ctx, gl_clean):
+    """A unit emitter half-way between two receivers 1 m apart: both get rho E F(0.5 m) when
+    it emits from both faces (Blender's emission shader), only the one it faces otherwise."""
+    albedo = 0.5
+    for two_sided in (True, False):
+        builder = SceneBuilder()
+        builder.quad("floor", [(0, 0, -0.5), (1, 0, -0.5), (1, 1, -0.5), (0, 1, -0.5)],
+                     (albedo,) * 3)
+        builder.quad("ceiling", [(0, 0, 0.5), (0, 1, 0.5), (1, 1, 0.5), (1, 0, 0.5)],
+                     (albedo,) * 3)
+        builder.quad("emitter", [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)], (0.0,) * 3,
+                     (2.0,) * 3, two_sided=two_sided)  # faces -z, towards the floor
+        image, samples, _ = bake(builder.build(), ctx, texel_density=12, max_shots=40,
+                                 threshold=0.0)
+        for z, lit in ((-0.5, True), (0.5, two_sided)):
+            on_plane = samples["occupied"] & (np.abs(samples["position"][..., 2] - z) < 1e-5)
+            position = samples["position"][on_plane]
+            measured = image[on_plane][:, 0]
+            if not lit:
+                assert np.all(measured == 0.0)
+                continue
+            expected = np.array([albedo * 2.0 * analytic.parallel_rectangle_form_factor(
+                x, y, 0, 1, 0, 1, 0.5) for x, y in position[:, :2]])
+            assert np.max(np.abs(measured / expected - 1)) < 0.03
+
+
+def test_penumbra_of_an_occluding_plate_is_bracketed_by_exact_visibility(ctx, gl_clean):
+    """A black plate at z = 0.5 covers x < 0.5 between a unit emitter at z = 1 and the
+    receiver. From a receiver point at x0, the emitter is visible for x > 1 - x0 exactly;
+    shooting from texel centres moves that edge by at most half an emitter texel, so each
+    receiver texel lies between the exact form factors with the edge shifted by that much."""
+    density = 16
+    albedo = 0.5
+    builder = SceneBuilder()
+    builder.quad("receiver", scenes.RECEIVER, (albedo,) * 3)
+    builder.quad("emitter", scenes.CEILING, (0.0,) * 3, (1.0,) * 3, two_sided=False)
+    builder.quad("plate", [(-1, -1, 0.5), (-1, 2, 0.5), (0.5, 2, 0.5), (0.5, -1, 0.5)],
+                 (0.0,) * 3, receive=False)
+    image, samples, _ = bake(builder.build(), ctx, texel_density=density, shoot_level=0,
+                             hemicube_resolution=512, threshold=0.0, max_shots=16 * 16)
+    rows, cols = receiver_texels(samples)
+    slack = 0.5 / density + 0.01
+    within = 0
+    for (x, y, _), value in zip(samples["position"][rows, cols], image[rows, cols, 0]):
+        edge = 1.0 - x
+        low = analytic.parallel_rectangle_form_factor(x, y, min(max(edge + slack, 0), 1), 1, 0, 1, 1)
+        high = analytic.parallel_rectangle_form_factor(x, y, min(max(edge - slack, 0), 1), 1, 0, 1, 1)
+        assert albedo * low - 1e-6 <= value <= albedo * high + 1e-6, (x, y, value, low, high)
+        within += 1
+    assert within == 16 * 16
