@@ -267,6 +267,7 @@ class Solver:
         self._fullscreen = {name: gl.vertex_array(self._programs[name], [])
                             for name in ("init", "block", "argmax", "patch", "light",
                                          "resolve", "dilate")}
+        self._set_constant_uniforms()
         self._albedo_textures = []
         for image in scene.albedo_textures:
             image = np.asarray(image, dtype=np.float32)
@@ -298,6 +299,30 @@ class Solver:
         self._emitted = self._emitted_maps + sum((self._light_power(l) for l in self._pending),
                                                  np.zeros(3))
         self._emitted_scalar = float(np.mean(self._emitted))
+
+    def _set_constant_uniforms(self):
+        """Uniforms that stay the same for the whole bake (texture units among them)."""
+        size = (float(self.atlas.width), float(self.atlas.height))
+        receivers = {"u_resolution": float(self.settings.hemicube_resolution),
+                     "u_epsilon": self._epsilon, "u_ortho_half": self._radius,
+                     "u_visibility": 0, "u_position": 1, "u_normal": 2, "u_albedo": 3}
+        constants = {
+            "attributes": {"u_atlas_size": size, "u_albedo_texture": 0},
+            "area": {"u_atlas_size": size},
+            "init": {"u_emission": 0},
+            "block": {"u_block": 1 << self.settings.shoot_level,
+                      "u_position": 0, "u_unshot": 1, "u_emission": 2},
+            "argmax": {"u_source": 0},
+            "visibility": {"u_ortho_half": self._radius},
+            "patch": receivers,
+            "light": receivers,
+            "clear": {"u_atlas_size": size},
+            "resolve": {"u_position": 0, "u_albedo": 1, "u_irradiance": 2},
+            "dilate": {"u_source": 0},
+        }
+        for name, uniforms in constants.items():
+            for uniform, value in uniforms.items():
+                _set(self._programs[name], uniform, value)
 
     def _memory_needed(self, atlas):
         texels = atlas.width * atlas.height * atlas.page_count
@@ -394,10 +419,6 @@ class Solver:
                                       [_buffer_content(self._programs[name], vbo, RASTER_LAYOUT)])
                 for name in ("attributes", "area")}
         ctx = self.ctx
-        size = (float(atlas.width), float(atlas.height))
-        for name in ("attributes", "area"):
-            _set(self._programs[name], "u_atlas_size", size)
-        _set(self._programs["attributes"], "u_albedo_texture", 0)
 
         for page in self._pages:
             page.attributes.use()
@@ -426,8 +447,6 @@ class Solver:
             page.area_only.color_mask = (True, True, True, True)
         ctx.disable(moderngl.BLEND)
 
-        init = self._programs["init"]
-        _set(init, "u_emission", 0)
         for page in self._pages:
             page.unshot_only.use()
             page.textures["emission"].use(location=0)
@@ -449,11 +468,6 @@ class Solver:
     # ----------------------------------------------------------------- selection
     def _select(self):
         """Masked arg-max over the shooting level on the GPU; 4 floats read back per page."""
-        block_program = self._programs["block"]
-        _set(block_program, "u_block", 1 << self.settings.shoot_level)
-        for name, unit in (("u_position", 0), ("u_unshot", 1), ("u_emission", 2)):
-            _set(block_program, name, unit)
-        _set(self._programs["argmax"], "u_source", 0)
         best = (0.0, None, None)
         total = 0.0
         for index, page in enumerate(self._pages):
@@ -566,7 +580,6 @@ class Solver:
         _set(program, "u_eye", tuple(eye))
         _set(program, "u_frame", tuple(np.asarray(frame, dtype=np.float64).T.ravel()))
         _set(program, "u_orthographic", int(orthographic))
-        _set(program, "u_ortho_half", self._radius)
         _set(program, "u_near", 1e-6 * self._radius if not orthographic else 0.0)
         _set(program, "u_far", 4.0 * self._radius + float(np.linalg.norm(eye - self._centre)))
 
@@ -594,18 +607,12 @@ class Solver:
     def _clear_texels(self, page, texels):
         self._clear_vbo.write(texels.astype("f4").tobytes())
         page.unshot_only.use()
-        _set(self._programs["clear"], "u_atlas_size",
-             (float(self.atlas.width), float(self.atlas.height)))
         self._clear_vao.render(moderngl.POINTS, vertices=len(texels))
 
     def _update_receivers(self, kind):
         program = self._programs[kind]
         eye, frame, orthographic = self._view
         self._view_uniforms(program, eye, frame, orthographic)
-        _set(program, "u_resolution", float(self.settings.hemicube_resolution))
-        _set(program, "u_epsilon", self._epsilon)
-        for name, unit in (("u_visibility", 0), ("u_position", 1), ("u_normal", 2), ("u_albedo", 3)):
-            _set(program, name, unit)
         ctx = self.ctx
         ctx.enable(moderngl.BLEND)
         ctx.blend_equation = moderngl.FUNC_ADD
@@ -627,10 +634,6 @@ class Solver:
         if not hasattr(self, "_output"):
             textures = [gl.texture(size, 4), gl.texture(size, 4)]
             self._output = [(t, gl.framebuffer([t])) for t in textures]
-        resolve, dilate = self._programs["resolve"], self._programs["dilate"]
-        for name, unit in (("u_position", 0), ("u_albedo", 1), ("u_irradiance", 2)):
-            _set(resolve, name, unit)
-        _set(dilate, "u_source", 0)
         pages = []
         for page in self._pages:
             (first, first_fbo), (second, second_fbo) = self._output
