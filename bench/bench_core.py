@@ -46,7 +46,7 @@ def main():
     parser.add_argument("--densities", type=float, nargs="+", default=[70.0, 220.0, 700.0],
                         help="texels per metre (about 10 k, 100 k and 1 M texels)")
     parser.add_argument("--shots", type=int, default=32)
-    parser.add_argument("--shoot-level", type=int, default=0)
+    parser.add_argument("--shoot-level", type=int, default=0, help="0: one texel per shot")
     parser.add_argument("--hemicube", type=int, default=256)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
