@@ -2,6 +2,7 @@
 #   make bake   installs the solver into .venv and bakes the Cornell box into out/cornell
 #   make test   installs the solver and pytest into .venv and runs the tests
 PYTHON ?= python3.11
+DEVICE ?= llvmpipe
 VENV := .venv
 BIN := $(VENV)/bin
 
@@ -29,7 +30,7 @@ test: $(VENV)/.dev
 	$(BIN)/python -m pytest -q tests
 
 bench: $(VENV)/.bench
-	$(BIN)/python bench/bench_core.py --json bench/results/core-$(DEVICE).json
+	$(BIN)/python bench/bench_core.py --shoot-level 0 --json bench/results/core-$(DEVICE).json
 	$(BIN)/python bench/plot.py
 
 clean:
