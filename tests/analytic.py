@@ -57,3 +57,22 @@ def perpendicular_form_factor(W, H):
         * (H * H * (1 + sq) / ((1 + H * H) * sq)) ** (H * H))
     return (W * math.atan(1 / W) + H * math.atan(1 / H)
             - math.sqrt(sq) * math.atan(1 / math.sqrt(sq)) + log_term) / (math.pi * W)
+
+
+def polygon_form_factors(points, normals, polygon):
+    """Lambert's formula for many elements at once: (N, 3) points with unit normals to one
+    planar polygon. Elements in the polygon's plane get 0 (a surface does not see itself)."""
+    polygon = np.asarray(polygon, float)
+    plane = np.cross(polygon[1] - polygon[0], polygon[2] - polygon[0])
+    plane /= np.linalg.norm(plane)
+    total = np.zeros(len(points))
+    for i in range(len(polygon)):
+        a = polygon[i] - points
+        b = polygon[(i + 1) % len(polygon)] - points
+        a /= np.linalg.norm(a, axis=1, keepdims=True)
+        b /= np.linalg.norm(b, axis=1, keepdims=True)
+        g = np.cross(a, b)
+        s = np.linalg.norm(g, axis=1)
+        total += np.arctan2(s, (a * b).sum(axis=1)) * (normals * g).sum(axis=1) / np.maximum(s, 1e-300)
+    coplanar = np.abs((points - polygon[0]) @ plane) < 1e-6
+    return np.where(coplanar, 0.0, np.abs(total) / (2 * math.pi))

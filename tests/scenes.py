@@ -1,4 +1,6 @@
 """Scenes with closed-form answers, built through the solver API."""
+import numpy as np
+
 from native.samples import SceneBuilder
 
 RECEIVER = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]          # z = 0, facing +z
@@ -43,3 +45,31 @@ def plane(size=2.0, albedo=0.5, lights=()):
     return (SceneBuilder()
             .quad("plane", [(-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0)], (albedo,) * 3)
             .build(lights))
+
+
+def inward_sphere(rings=16, segments=32, albedo=0.5, radiance=4.0, cap_rings=3):
+    """Unit UV sphere seen from inside (faces point to the centre), its top `cap_rings` rings
+    emitting one-sidedly."""
+    from native import Scene
+    theta = np.pi * np.arange(rings + 1) / rings
+    phi = 2 * np.pi * np.arange(segments) / segments
+    vertices = np.stack([np.outer(np.sin(theta), np.cos(phi)),
+                         np.repeat(np.cos(theta)[:, None], segments, axis=1),
+                         np.outer(np.sin(theta), np.sin(phi))], axis=2).reshape(-1, 3)
+    index = lambda i, j: i * segments + j % segments
+    triangles, emitting = [], []
+    for i in range(rings):
+        for j in range(segments):
+            a, b, c, d = index(i, j), index(i, j + 1), index(i + 1, j + 1), index(i + 1, j)
+            # counter-clockwise seen from the centre; the pole rows keep one triangle
+            for triangle in ((a, c, b), (a, d, c)):
+                if (i == 0 and triangle == (a, c, b)) or (i == rings - 1 and triangle == (a, d, c)):
+                    continue
+                triangles.append(triangle)
+                emitting.append(i < cap_rings)
+    emitting = np.array(emitting)
+    count = len(triangles)
+    return Scene(vertices=vertices, triangles=np.array(triangles),
+                 albedo=np.full((count, 3), albedo),
+                 emission=np.where(emitting[:, None], radiance, 0.0) * np.ones((count, 3)),
+                 emission_two_sided=np.zeros(count, dtype=bool))
