@@ -4,13 +4,10 @@ at each shooting level, run to an unshot threshold.
     python bench/bench_convergence.py --density 100 --json bench/results/convergence-llvmpipe.json
 """
 import argparse
-import json
-import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
+from common import save_results  # also puts the repository on sys.path
 from native import Settings, Solver, create_context  # noqa: E402
 from native.samples import cornell_box  # noqa: E402
 
@@ -52,12 +49,9 @@ def main():
               f"{progress.unshot_fraction:>8.4f}")
         solver.release()
     ctx.release()
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps({"device": device, "scene": "cornell_box",
-                                         "density": args.density, "threshold": args.threshold,
-                                         "hemicube_resolution": args.hemicube, "runs": runs},
-                                        indent=1))
+    save_results(args.json, {"device": device, "scene": "cornell_box",
+                             "density": args.density, "threshold": args.threshold,
+                             "hemicube_resolution": args.hemicube, "runs": runs})
 
 
 if __name__ == "__main__":

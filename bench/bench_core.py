@@ -6,13 +6,10 @@ texel counts, with a fixed number of shots like the paper's Table 1.
 Each size is baked twice in the same run: once with a GPU sync after every phase (the
 breakdown) and once without (the throughput a user gets). Times are seconds."""
 import argparse
-import json
-import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
+from common import save_results  # also puts the repository on sys.path
 from native import Settings, Solver, create_context  # noqa: E402
 from native.gpu import using  # noqa: E402
 from native.samples import cornell_box  # noqa: E402
@@ -73,12 +70,9 @@ def main():
             + [profiled["seconds"], plain["seconds"], plain["shots"] / max(solve, 1e-9)]
         print(" ".join(f"{v:>11.4g}" if isinstance(v, float) else f"{v:>11}" for v in values))
     ctx.release()
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps({"device": device, "scene": "cornell_box",
-                                         "shots": args.shots, "shoot_level": args.shoot_level,
-                                         "hemicube_resolution": args.hemicube, "rows": rows},
-                                        indent=2))
+    save_results(args.json, {"device": device, "scene": "cornell_box",
+                             "shots": args.shots, "shoot_level": args.shoot_level,
+                             "hemicube_resolution": args.hemicube, "rows": rows})
 
 
 if __name__ == "__main__":
