@@ -8,8 +8,8 @@ import time
 from pathlib import Path
 
 from common import save_results  # also puts the repository on sys.path
-from native import Settings, Solver, create_context  # noqa: E402
-from native.samples import cornell_box  # noqa: E402
+from native import Settings, Solver, create_context
+from native.samples import cornell_box
 
 
 def main():

@@ -10,10 +10,10 @@ import time
 from pathlib import Path
 
 from common import save_results  # also puts the repository on sys.path
-from native import Settings, Solver, create_context  # noqa: E402
-from native.gpu import using  # noqa: E402
-from native.samples import cornell_box  # noqa: E402
-from native.solver import PHASES  # noqa: E402
+from native import Settings, Solver, create_context
+from native.gpu import using
+from native.samples import cornell_box
+from native.solver import PHASES
 
 
 def bake(scene, ctx, density, shots, shoot_level, resolution, profile):
