@@ -29,6 +29,10 @@ BYTES_PER_TEXEL = 5 * 16 + 2 * 8 + 4
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
                  ("in_albedo", 3), ("in_emission", 4), ("in_receive", 1))
 PHASES = ("preprocess", "selection", "visibility", "receivers", "postprocess")
+# A shooter takes the texels of its block whose unshot radiance is at least this share of the
+# strongest one's; the rest wait for a later shot. Lumping a bright corner with dim texels
+# would shoot the bright energy from the wrong place (across a shadow boundary, say).
+SIMILAR_RADIANCE = 0.25
 
 
 @dataclass
@@ -174,17 +178,21 @@ class Solver:
 
     def texel_samples(self):
         """Where each texel samples the surface, per page: a dict of (height, width, ...)
-        arrays 'position' (world), 'normal', 'area' (world area the texel covers) and
-        'occupied' (a receiving texel). Row 0 at v = 0, as in result()."""
+        arrays 'position' (world), 'normal', 'area' (world area the texel covers),
+        'coverage' (the share of the texel square on the surface: 1 inside charts, less at
+        their borders) and 'occupied' (a receiving texel). Row 0 at v = 0, as in result()."""
         with using(self.ctx):
             samples = []
             for page in self._pages:
                 position = self._read(page.textures["position"])
+                normal = self._read(page.textures["normal"])
                 albedo = self._read(page.textures["albedo"])
+                area = position[..., 3]
+                texel_area = np.maximum(normal[..., 3], 1e-30) ** 2
                 samples.append({
-                    "position": position[..., :3], "area": position[..., 3],
-                    "normal": self._read(page.textures["normal"])[..., :3],
-                    "occupied": (position[..., 3] > 0) & (albedo[..., 3] > 0)})
+                    "position": position[..., :3], "normal": normal[..., :3], "area": area,
+                    "coverage": np.where(area > 0, area / texel_area, 0.0),
+                    "occupied": (area > 0) & (albedo[..., 3] > 0)})
             return samples
 
     def ledger(self):
@@ -490,8 +498,8 @@ class Solver:
     # ----------------------------------------------------------------- shooting
     def _gather_shooter(self, page_index, block):
         """Read back the chosen block's texels and make the shooter: the coplanar part of the
-        block around its strongest texel (blocks at coarse levels may also hold texels of
-        other charts, which keep their energy)."""
+        block around its strongest texel with similar unshot radiance (blocks at coarse
+        levels may also hold texels of other charts, which keep their energy)."""
         page = self._pages[page_index]
         size = 1 << self.settings.shoot_level
         x0, y0 = block[0] * size, block[1] * size
@@ -510,9 +518,10 @@ class Solver:
         power = (front + back).mean(axis=1) * area
         strongest = int(np.argmax(power))
         n0, p0 = normal[strongest, :3], position[strongest, :3]
+        density = power / np.maximum(area, 1e-30)
         coplanar = ((power > 0.0) & (normal[:, :3] @ n0 > 0.95)
                     & (np.abs((position[:, :3] - p0) @ n0) <= 0.25 * size * normal[strongest, 3]))
-        members = np.nonzero(coplanar)[0]
+        members = np.nonzero(coplanar & (density >= SIMILAR_RADIANCE * density[strongest]))[0]
         weights = area[members, None]
         total_area = float(weights.sum())
         centre = (position[members, :3] * weights).sum(axis=0) / total_area
