@@ -188,10 +188,11 @@ class Solver:
                 normal = self._read(page.textures["normal"])
                 albedo = self._read(page.textures["albedo"])
                 area = position[..., 3]
-                texel_area = np.maximum(normal[..., 3], 1e-30) ** 2
+                coverage = np.zeros_like(area)
+                np.divide(area, normal[..., 3] ** 2, out=coverage, where=area > 0)
                 samples.append({
                     "position": position[..., :3], "normal": normal[..., :3], "area": area,
-                    "coverage": np.where(area > 0, area / texel_area, 0.0),
+                    "coverage": coverage,
                     "occupied": (area > 0) & (albedo[..., 3] > 0)})
             return samples
 
