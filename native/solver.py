@@ -153,7 +153,11 @@ class Solver:
             if self._pending:
                 self._shoot_light(self._pending.pop(0))
             else:
-                self._shoot_patch(self._timed("selection", self._gather_shooter, page, block))
+                shooter = self._timed("selection", self._gather_shooter, page, block)
+                if shooter is None:  # the GPU's float sums saw power the texels do not hold
+                    self.converged = self.finished = True
+                    return False
+                self._shoot_patch(shooter)
             self.shots += 1
         return True
 
@@ -518,6 +522,8 @@ class Solver:
         back = unshot[:, 3:4] * emission[:, :3]
         power = (front + back).mean(axis=1) * area
         strongest = int(np.argmax(power))
+        if power[strongest] <= 0.0:
+            return None
         n0, p0 = normal[strongest, :3], position[strongest, :3]
         density = power / np.maximum(area, 1e-30)
         coplanar = ((power > 0.0) & (normal[:, :3] @ n0 > 0.95)
