@@ -26,7 +26,8 @@ class Atlas:
 def build_atlas(scene, density, max_size=4096, padding=2, charted=None):
     """Chart and pack the triangles flagged in ``charted`` (receivers and emitters by default).
 
-    Each object is its own xatlas mesh, so charts never join across objects. When the atlas
+    Each object is its own xatlas mesh, so charts never join across objects, and its texel
+    density is multiplied by the scene's object_texel_scale. When the atlas
     would exceed ``max_size`` texels on a side, xatlas fills several pages of that size.
     """
     if not np.isfinite(density) or density <= 0.0:
@@ -76,6 +77,8 @@ def _atlas_of(scene, mesh_triangles):
     atlas = xatlas.Atlas()
     for members in mesh_triangles:
         used, local = np.unique(scene.triangles[members], return_inverse=True)
-        atlas.add_mesh(scene.vertices[used].astype(np.float32),
+        # xatlas sizes charts by surface area: scaling an object's copy scales its texels.
+        scale = scene.object_texel_scale[int(scene.object_index[members[0]])]
+        atlas.add_mesh((scene.vertices[used] * scale).astype(np.float32),
                        local.reshape(-1, 3).astype(np.uint32))
     return atlas

@@ -74,7 +74,8 @@ class Scene:
     (Blender's emission colour x strength); emission_two_sided (T,) emits from both faces
     as Blender's emission shader does (default) or only from the front.
     receive (T,) gets a lightmap; non-receiving triangles still occlude and emit.
-    object_index (T,) into object_names, used in messages and by the add-on.
+    object_index (T,) into object_names, used in messages and by the add-on;
+    object_texel_scale, one factor per object name, multiplies the texel density there.
     albedo_texture_index (T,) into albedo_textures ((H, W, 3 or 4) linear float arrays, row 0
     at v = 0) sampled through albedo_uv (T, 3, 2); -1 for none. The texture is multiplied by
     the triangle's albedo.
@@ -88,6 +89,7 @@ class Scene:
     receive: np.ndarray = None
     object_index: np.ndarray = None
     object_names: list = field(default_factory=lambda: ["mesh"])
+    object_texel_scale: list = None
     albedo_uv: np.ndarray = None
     albedo_texture_index: np.ndarray = None
     albedo_textures: list = field(default_factory=list)
@@ -122,6 +124,8 @@ class Scene:
         self.albedo_texture_index = per_triangle(self.albedo_texture_index, -1, np.int64)
         if self.albedo_uv is not None:
             self.albedo_uv = np.ascontiguousarray(self.albedo_uv, dtype=np.float64)
+        if self.object_texel_scale is None:
+            self.object_texel_scale = [1.0] * len(self.object_names)
         self._validate()
 
     def object_name(self, triangle):
@@ -176,6 +180,10 @@ class Scene:
         if bad.any():
             self._fail("emission is negative; use a colour and strength of 0 or more",
                        int(np.argmax(bad)))
+
+        scales = np.asarray(self.object_texel_scale, dtype=np.float64)
+        if scales.shape != (len(self.object_names),) or not (np.isfinite(scales) & (scales > 0)).all():
+            raise SceneError("object_texel_scale needs one positive factor per object name")
 
         textured = self.albedo_texture_index >= 0
         if textured.any():

@@ -202,3 +202,24 @@ def test_native_never_imports_bpy():
     result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "ok"
+
+
+def test_texel_count_follows_area_and_the_object_scale():
+    """Texels grow with surface area, not triangle count, and with the object's scale squared."""
+    from native import build_atlas
+    builder = SceneBuilder()
+    builder.quad("coarse", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], subdivisions=1)
+    builder.quad("fine", [(2, 0, 0), (3, 0, 0), (3, 1, 0), (2, 1, 0)], subdivisions=12)
+    builder.quad("scaled", [(4, 0, 0), (5, 0, 0), (5, 1, 0), (4, 1, 0)], (0.5,) * 3, (1.0,) * 3)
+    scene = builder.build()
+    scene.object_texel_scale = [1.0, 1.0, 2.0]
+    atlas = build_atlas(scene, density=16.0)
+    texels_per_object = []
+    for obj in range(3):
+        corners = atlas.texels[scene.object_index[atlas.triangles] == obj]
+        doubled = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        texels_per_object.append(0.5 * np.abs(doubled).sum())
+    coarse, fine, scaled = texels_per_object
+    assert coarse == pytest.approx(16 * 16, rel=0.02)
+    assert fine == pytest.approx(coarse, rel=0.02)        # 288 triangles, same texels
+    assert scaled == pytest.approx(4 * coarse, rel=0.02)  # twice the density
