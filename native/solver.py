@@ -123,6 +123,7 @@ class Solver:
         self._unshot_fraction = 1.0
         self._shot_power = np.zeros(3)
         self._owns_context = ctx is None
+        self._output = None
         self.ctx = None
         self._gl = None
         self._started = time.perf_counter()
@@ -618,7 +619,6 @@ class Solver:
         ctx.disable(moderngl.BLEND)
         if clip_below:
             ctx.disable_direct(0x3000)
-        self._finish()
 
     def _clear_texels(self, page, texels):
         self._clear_vbo.write(texels.astype("f4").tobytes())
@@ -641,13 +641,12 @@ class Solver:
             page.textures["albedo"].use(location=3)
             self._fullscreen[kind].render(moderngl.TRIANGLES, vertices=3)
         ctx.disable(moderngl.BLEND)
-        self._finish()
 
     # ----------------------------------------------------------------- postprocess
     def _postprocess(self):
         gl = self._gl
         size = (self.atlas.width, self.atlas.height)
-        if not hasattr(self, "_output"):
+        if self._output is None:  # made on the first result(), reused afterwards
             textures = [gl.texture(size, 4), gl.texture(size, 4)]
             self._output = [(t, gl.framebuffer([t])) for t in textures]
         pages = []
