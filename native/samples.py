@@ -16,10 +16,11 @@ class SceneBuilder:
     def __init__(self):
         self._vertices, self._triangles = [], []
         self._albedo, self._emission, self._two_sided, self._receive = [], [], [], []
+        self._occlude = []
         self._object_index, self.object_names = [], []
 
     def quad(self, name, corners, albedo=(0.5, 0.5, 0.5), emission=(0.0, 0.0, 0.0),
-             two_sided=True, receive=True, subdivisions=1):
+             two_sided=True, receive=True, subdivisions=1, occlude=True):
         """Add a planar quad given by 4 corners in counter-clockwise order seen from its front,
         optionally split into subdivisions x subdivisions cells."""
         if name not in self.object_names:
@@ -42,6 +43,7 @@ class SceneBuilder:
                     self._emission.append(emission)
                     self._two_sided.append(two_sided)
                     self._receive.append(receive)
+                    self._occlude.append(occlude)
                     self._object_index.append(obj)
         return self
 
@@ -65,14 +67,14 @@ class SceneBuilder:
             self.quad(name, side, albedo)
         return self
 
-    def build(self, lights=()):
+    def build(self, lights=(), sky=(0.0, 0.0, 0.0)):
         return Scene(
             vertices=np.concatenate(self._vertices), triangles=np.array(self._triangles),
             albedo=np.array(self._albedo, dtype=np.float64),
             emission=np.array(self._emission, dtype=np.float64),
             emission_two_sided=np.array(self._two_sided), receive=np.array(self._receive),
             object_index=np.array(self._object_index), object_names=list(self.object_names),
-            lights=list(lights))
+            occlude=np.array(self._occlude), lights=list(lights), sky=sky)
 
 
 def cornell_box():

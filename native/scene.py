@@ -74,6 +74,8 @@ class Scene:
     (Blender's emission colour x strength); emission_two_sided (T,) emits from both faces
     as Blender's emission shader does (default) or only from the front.
     receive (T,) gets a lightmap; non-receiving triangles still occlude and emit.
+    occlude (T,) casts shadows (default); off for Blender area lights, which emit but are
+    invisible to other light.
     object_index (T,) into object_names, used in messages and by the add-on;
     object_texel_scale, one factor per object name, multiplies the texel density there.
     albedo_texture_index (T,) into albedo_textures ((H, W, 3 or 4) linear float arrays, row 0
@@ -94,6 +96,8 @@ class Scene:
     albedo_texture_index: np.ndarray = None
     albedo_textures: list = field(default_factory=list)
     lights: list = field(default_factory=list)
+    occlude: np.ndarray = None
+    sky: tuple = (0.0, 0.0, 0.0)
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -120,6 +124,8 @@ class Scene:
         self.emission = per_triangle(self.emission, 0.0, np.float64, 3)
         self.emission_two_sided = per_triangle(self.emission_two_sided, True, bool)
         self.receive = per_triangle(self.receive, True, bool)
+        self.occlude = per_triangle(self.occlude, True, bool)
+        self.sky = _vec3(self.sky, "sky")
         self.object_index = per_triangle(self.object_index, 0, np.int64)
         self.albedo_texture_index = per_triangle(self.albedo_texture_index, -1, np.int64)
         if self.albedo_uv is not None:
@@ -201,9 +207,12 @@ class Scene:
 
         for light in self.lights:
             self._validate_light(light)
+        if not np.isfinite(self.sky).all() or self.sky.min() < 0.0:
+            raise SceneError(f"sky radiance {self.sky.tolist()} must be finite and not negative; "
+                             "fix the world colour")
         sun_power = sum(float(np.sum(light.irradiance())) for light in self.lights
                         if isinstance(light, SunLight))
-        if self.emitted_power().sum() <= 0.0 and sun_power <= 0.0:
+        if self.emitted_power().sum() <= 0.0 and sun_power <= 0.0 and self.sky.sum() <= 0.0:
             raise SceneError("the scene has no light: add a light with positive power or a "
                              "material with emission colour and strength above 0")
 

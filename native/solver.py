@@ -45,6 +45,7 @@ class Settings:
     threshold: float = 0.01          # stop when this fraction of the emitted power is unshot
     max_shots: int = 10000           # stop after this many shots
     memory_limit: int = 4 << 30      # bytes of GPU memory Luxel may use
+    sky_directions: int = 256        # suns that stand in for a uniform sky (world colour)
     profile: bool = False            # wait for the GPU after each phase for exact timings
 
     def validate(self):
@@ -55,6 +56,7 @@ class Settings:
             (0 <= self.shoot_level <= 6, "shoot_level must be in 0..6"),
             (0.0 <= self.threshold < 1.0, "threshold must be in [0, 1)"),
             (self.max_shots >= 0, "max_shots must be 0 or more"),
+            (1 <= self.sky_directions <= 65536, "sky_directions must be in 1..65536"),
         ]
         for ok, message in checks:
             if not ok:
@@ -298,7 +300,11 @@ class Solver:
         resolution = settings.hemicube_resolution
         self._visibility = gl.texture_array((resolution, resolution, 6), 1)
         self._visibility_fbo = gl.framebuffer([self._visibility])
-        positions = scene.vertices[scene.triangles].astype("f4")
+        # Only occluders go into the visibility buffer; at least one triangle keeps it valid.
+        occluders = scene.triangles[scene.occlude] if scene.occlude.any() else scene.triangles[:0]
+        positions = scene.vertices[occluders].astype("f4")
+        if not len(positions):
+            positions = np.full((1, 3, 3), 1e30, dtype="f4")
         self._scene_vbo = gl.buffer(positions.tobytes())
         self._visibility_vao = gl.vertex_array(
             self._programs["visibility"], [(self._scene_vbo, "3f", "in_position")])
@@ -309,7 +315,8 @@ class Solver:
                                           [(self._clear_vbo, "2f", "in_texel")])
 
         self._measure_emission()
-        self._pending = [light for light in scene.lights if np.mean(self._light_power(light)) > 0]
+        lights = list(scene.lights) + sky_suns(scene.sky, settings.sky_directions)
+        self._pending = [light for light in lights if np.mean(self._light_power(light)) > 0]
         self._emitted = self._emitted_maps + sum((self._light_power(l) for l in self._pending),
                                                  np.zeros(3))
         self._emitted_scalar = float(np.mean(self._emitted))
@@ -684,6 +691,22 @@ class Solver:
         finally:
             self._finish()
             self.timings[phase] += time.perf_counter() - start
+
+
+def sky_suns(radiance, count):
+    """A uniform sky of ``radiance`` as ``count`` suns on a Fibonacci sphere, each carrying the
+    irradiance of its 4 pi / count share of directions: radiance * 4 pi / count."""
+    radiance = np.asarray(radiance, dtype=np.float64)
+    if radiance.max() <= 0.0:
+        return []
+    index = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * index / count
+    azimuth = math.pi * (3.0 - math.sqrt(5.0)) * index
+    ring = np.sqrt(1.0 - z * z)
+    directions = np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), z], axis=1)
+    strength = float(radiance.max()) * 4.0 * math.pi / count
+    color = tuple(radiance / radiance.max())
+    return [SunLight(tuple(d), strength, color, name="World") for d in directions]
 
 
 def _shooter_quad(offsets, texel_sizes, t, b, area, centre):

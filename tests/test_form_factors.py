@@ -259,3 +259,58 @@ def test_curved_surface_first_bounce_matches_lambert_on_every_facet(ctx, gl_clea
     assert abs(np.median(error)) < 0.01
     assert np.mean(np.abs(error) < 0.03) > 0.95
     assert np.all(np.abs(error) < 0.25)
+
+
+def test_uniform_sky_lights_an_open_plane_by_rho_times_radiance(ctx, gl_clean):
+    """A plane under a uniform sky of radiance L receives pi L: reflected rho L. A wall
+    standing on it hides the part of the sky given by Lambert's form factor to the wall."""
+    sky = np.array([0.4, 0.8, 1.2])
+    builder = SceneBuilder().quad("plane", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)],
+                                  (0.5, 0.5, 0.5))
+    open_scene = builder.build(sky=sky)
+    image, samples, _ = bake(open_scene, ctx, texel_density=8, max_shots=300,
+                             hemicube_resolution=64)
+    rows, cols = receiver_texels(samples)
+    np.testing.assert_allclose(image[rows, cols, :3], np.broadcast_to(0.5 * sky, (len(rows), 3)),
+                               rtol=0.02)
+
+    wall = [(0, -2, 0), (0, -2, 2), (0, 3, 2), (0, 3, 0)]
+    walled = (SceneBuilder()
+              .quad("plane", [(0, -1, 0), (2, -1, 0), (2, 1, 0), (0, 1, 0)], (0.5,) * 3)
+              .quad("wall", wall, (0.0,) * 3, receive=False)
+              .build(sky=sky))
+    image, samples, _ = bake(walled, ctx, texel_density=8, max_shots=300,
+                             hemicube_resolution=256)
+    rows, cols = receiver_texels(samples)
+    points = samples["position"][rows, cols]
+    away = points[:, 0] > 0.3     # clear of the shadow-map texels at the wall's foot
+    hidden = analytic.polygon_form_factors(points[away], np.tile([0.0, 0.0, 1.0], (away.sum(), 1)),
+                                           wall)
+    expected = 0.5 * sky[None, :] * (1.0 - hidden)[:, None]
+    assert hidden.min() > 0.05
+    measured = image[rows, cols, :3][away]
+    # 256 sun directions stand in for the sky: each texel within 5 %, the mean within 1 %.
+    np.testing.assert_allclose(measured, expected, rtol=0.05)
+    np.testing.assert_allclose(measured.mean(axis=0), expected.mean(axis=0), rtol=0.01)
+
+
+def test_non_occluding_emitter_lights_without_casting_shadows(ctx, gl_clean):
+    """Blender area lights emit but block nothing: a second copy of the emitter, non-occluding,
+    between the first emitter and the receiver changes nothing but adds its own light."""
+    radiance = np.array([1.0, 1.0, 1.0])
+    base = scenes.parallel_squares(radiance)
+    reference, samples, _ = bake(base, ctx, texel_density=8, threshold=0.001,
+                                 hemicube_resolution=64, max_shots=2000)
+    builder = (SceneBuilder()
+               .quad("receiver", scenes.RECEIVER, (0.5,) * 3)
+               .quad("emitter", scenes.CEILING, (0.0,) * 3, radiance, two_sided=False)
+               .quad("area light", [(0, 0, 0.999), (0, 1, 0.999), (1, 1, 0.999), (1, 0, 0.999)],
+                     (0.0,) * 3, radiance, two_sided=False, receive=False, occlude=False))
+    scene = builder.build()
+    doubled, samples2, _ = bake(scene, ctx, texel_density=8, threshold=0.001,
+                                hemicube_resolution=64, max_shots=2000)
+    rows, cols = receiver_texels(samples)
+    rows2, cols2 = receiver_texels(samples2)
+    # The second emitter sits 1 mm lower: its form factor is within 0.3 % of the first's.
+    np.testing.assert_allclose(doubled[rows2, cols2, :3].mean(axis=0),
+                               2 * reference[rows, cols, :3].mean(axis=0), rtol=0.01)
