@@ -20,14 +20,19 @@ INSTALL_HINT = ("Luxel needs OpenGL 4.1. Install or update the GPU driver; on a 
 
 
 def create_context():
-    """A headless OpenGL 4.1+ core context (EGL on Linux, the native API elsewhere)."""
+    """A headless OpenGL 4.1+ core context (EGL on Linux, the native API elsewhere). The
+    caller's current context (Blender's) stays current."""
     attempts = [{"backend": "egl"}, {}]
     errors = []
-    for kwargs in attempts:
-        try:
-            return moderngl.create_standalone_context(require=410, **kwargs)
-        except Exception as error:  # moderngl raises plain Exceptions for missing drivers
-            errors.append(f"{kwargs.get('backend', 'default')}: {error}")
+    saved = _save_current()
+    try:
+        for kwargs in attempts:
+            try:
+                return moderngl.create_standalone_context(require=410, **kwargs)
+            except Exception as error:  # moderngl raises plain Exceptions for missing drivers
+                errors.append(f"{kwargs.get('backend', 'default')}: {error}")
+    finally:
+        _restore(saved)
     raise GLUnavailableError(f"{INSTALL_HINT} ({'; '.join(errors)})")
 
 
@@ -93,16 +98,26 @@ def _context_trackers():
 _TRACKERS = None
 
 
+def _save_current():
+    global _TRACKERS
+    if _TRACKERS is None:
+        _TRACKERS = _context_trackers()
+    return [(tracker, tracker.save()) for tracker in _TRACKERS]
+
+
+def _restore(saved):
+    for tracker, state in saved:
+        if state is not None:
+            tracker.restore(state)
+
+
 @contextmanager
 def using(ctx):
     """Make Luxel's context current for a block and give the caller's context back after it.
 
     moderngl's own ``with ctx:`` leaves no context current on exit (EGL), which would pull the
     rug from under Blender's drawing; on Linux the previous EGL or GLX context is restored."""
-    global _TRACKERS
-    if _TRACKERS is None:
-        _TRACKERS = _context_trackers()
-    saved = [(tracker, tracker.save()) for tracker in _TRACKERS]
+    saved = _save_current()
     with ctx:
         # Rebind the framebuffer that was bound on entry: moderngl rebinds its last-used
         # framebuffer when it creates another, which fails once that one is released.
@@ -111,9 +126,7 @@ def using(ctx):
             yield ctx
         finally:
             bound.use()
-    for tracker, state in saved:
-        if state is not None:
-            tracker.restore(state)
+    _restore(saved)
 
 
 def load_shader(name):

@@ -1,0 +1,142 @@
+"""``blender -b scene.blend --command luxel bake ...``: a headless bake for pipelines.
+Progress goes to stdout; a failure prints one line to stderr and exits non-zero."""
+import argparse
+import os
+import sys
+
+import bpy
+
+from ..native import LuxelError
+from .bake import BakeJob
+from .properties import PROJECTIONS
+
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+
+
+class _UsageError(Exception):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        raise _UsageError(message)
+
+
+def _parser():
+    parser = _Parser(prog="blender -b FILE.blend --command luxel",
+                     description="Bake Luxel lightmaps in the background.")
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    bake = commands.add_parser("bake", help="bake the open .blend's scene")
+    bake.add_argument("--projection", choices=[item[0] for item in PROJECTIONS])
+    bake.add_argument("--shots", type=int, help="stop after this many shots")
+    bake.add_argument("--threshold", type=float, help="stop at this unshot energy fraction")
+    bake.add_argument("--density", type=float, help="lightmap texels per metre")
+    bake.add_argument("--output", metavar="DIR", help="write EXR lightmaps into DIR")
+    bake.add_argument("--preview", metavar="PNG",
+                      help="render the camera view with the baked lighting (Workbench)")
+    bake.add_argument("--save", action="store_true",
+                      help="save the .blend with the lightmaps (packed, or linked to --output)")
+    return parser
+
+
+def execute(argv):
+    """The registered command; also what tests call with an argv list. Returns the exit code."""
+    try:
+        args = _parser().parse_args(list(argv))
+        _check(args)
+    except _UsageError as error:
+        print(f"luxel: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        return _bake(args)
+    except LuxelError as error:
+        print(f"luxel: bake failed: {error}", file=sys.stderr)
+        return EXIT_FAILED
+
+
+def _check(args):
+    if args.shots is not None and args.shots < 1:
+        raise _UsageError("--shots must be 1 or more")
+    if args.threshold is not None and not 0.0 <= args.threshold < 1.0:
+        raise _UsageError("--threshold must be in [0, 1), e.g. 0.01")
+    if args.density is not None and not args.density > 0.0:
+        raise _UsageError("--density must be a positive number of texels per metre")
+    if args.save and not bpy.data.filepath:
+        raise _UsageError("--save needs a .blend file: open one with blender -b FILE.blend")
+
+
+def _bake(args):
+    context = bpy.context
+    settings = context.scene.luxel
+    if args.projection:
+        settings.projection = args.projection
+    if args.shots is not None:
+        settings.max_shots = args.shots
+    if args.threshold is not None:
+        settings.threshold = args.threshold
+    if args.density is not None:
+        settings.texel_density = args.density
+    if args.output:
+        settings.output = 'FILES'
+        settings.directory = os.path.abspath(args.output)
+
+    job = BakeJob(context)
+    for warning in job.warnings:
+        print(f"luxel: warning: {warning}")
+    print(f"luxel: {len(job.export.scene.triangles):,} triangles, "
+          f"{job.solver.texel_count:,} texels on {job.solver.atlas.page_count} page(s)",
+          flush=True)
+    try:
+        while not job.step(seconds=1.0):
+            print(job.status(), flush=True)
+    except BaseException:
+        job.release()
+        raise
+    images = job.finish()
+    stats = settings.stats
+    print(f"luxel: done: {stats.texels:,} texels, {stats.shots} shots, {stats.unshot:.2f} % "
+          f"unshot, {stats.seconds:.1f} s, {len(images)} image(s)", flush=True)
+    if args.preview:
+        render_preview(context.scene, os.path.abspath(args.preview))
+        print(f"luxel: preview {args.preview}", flush=True)
+    if args.save:
+        bpy.ops.wm.save_mainfile()
+        print(f"luxel: saved {bpy.data.filepath}", flush=True)
+    return 0
+
+
+def render_preview(scene, path):
+    """Workbench render of the camera view showing the lightmaps; the scene's render and
+    display settings are restored afterwards."""
+    if scene.camera is None:
+        raise LuxelError("the scene has no camera for the preview: add one or drop --preview")
+    render, shading = scene.render, scene.display.shading
+    saved = (render.engine, render.filepath, render.image_settings.file_format,
+             shading.light, shading.color_type, scene.luxel.show_baked)
+    try:
+        render.engine = 'BLENDER_WORKBENCH'
+        render.filepath = path
+        render.image_settings.file_format = 'PNG'
+        shading.light = 'FLAT'
+        shading.color_type = 'TEXTURE'
+        scene.luxel.show_baked = True
+        bpy.ops.render.render(write_still=True)
+    finally:
+        (render.engine, render.filepath, render.image_settings.file_format,
+         shading.light, shading.color_type, scene.luxel.show_baked) = saved
+
+
+_command = None
+
+
+def register():
+    global _command
+    _command = bpy.utils.register_cli_command("luxel", execute)
+
+
+def unregister():
+    global _command
+    if _command is not None:
+        bpy.utils.unregister_cli_command(_command)
+        _command = None

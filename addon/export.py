@@ -1,0 +1,448 @@
+"""Blender scene -> native.Scene, through the evaluated depsgraph: world-space triangles with
+modifiers and instances applied, diffuse albedo and emission from the materials, Blender's lights
+and the world colour in Cycles' units. What cannot be mapped is approximated and reported."""
+from collections import Counter
+from dataclasses import dataclass, field
+import math
+
+import bpy
+import numpy as np
+
+from ..native import PointLight, Scene, SceneError, SpotLight, SunLight
+
+MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (native checks < 1)
+DISK_SEGMENTS = 32
+DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # what Cycles shows for an empty material slot
+TEXTURE_TINT = (0.9999,) * 3       # the solver multiplies textures by it; it must stay below 1
+
+
+@dataclass
+class Receiver:
+    """A mesh object that gets a lightmap: its triangles in the scene and their loops in the
+    object's own mesh (the same loops as in the evaluated mesh, which the export checked)."""
+    object_name: str
+    object_index: int
+    first_triangle: int
+    loops: np.ndarray           # (T, 3) loop indices of each exported triangle
+
+
+@dataclass
+class Export:
+    scene: Scene
+    receivers: list
+    warnings: list = field(default_factory=list)
+    emission_of_material: dict = field(default_factory=dict)
+
+
+@dataclass
+class _Material:
+    albedo: tuple = DEFAULT_ALBEDO
+    emission: tuple = (0.0, 0.0, 0.0)
+    texture: int = -1           # index into the export's albedo textures
+    uv_map: str = ""            # UV map the texture is sampled through ("" = active render)
+
+
+class _Collector:
+    def __init__(self):
+        self.vertices, self.triangles, self.normals = [], [], []
+        self.albedo, self.emission, self.two_sided = [], [], []
+        self.receive, self.occlude, self.object_index = [], [], []
+        self.albedo_uv, self.texture_index = [], []
+        self.object_names, self.texel_scale = [], []
+        self.vertex_count = 0
+        self.triangle_count = 0
+
+    def add_object(self, name, texel_scale=1.0):
+        self.object_names.append(name)
+        self.texel_scale.append(texel_scale)
+        return len(self.object_names) - 1
+
+    def add(self, vertices, normals, triangles, obj, albedo, emission, two_sided, receive,
+            occlude, albedo_uv, texture_index):
+        count = len(triangles)
+        self.vertices.append(vertices)
+        self.normals.append(normals)
+        self.triangles.append(triangles + self.vertex_count)
+        self.vertex_count += len(vertices)
+        self.albedo.append(albedo)
+        self.emission.append(emission)
+        self.two_sided.append(np.broadcast_to(two_sided, count))
+        self.receive.append(np.broadcast_to(receive, count))
+        self.occlude.append(np.broadcast_to(occlude, count))
+        self.object_index.append(np.full(count, obj))
+        self.albedo_uv.append(albedo_uv)
+        self.texture_index.append(texture_index)
+        first = self.triangle_count
+        self.triangle_count += count
+        return first
+
+
+def export_scene(context, depsgraph=None):
+    """Export what renders: objects hidden from render are skipped, instances expanded."""
+    scene = context.scene
+    depsgraph = depsgraph or context.evaluated_depsgraph_get()
+    exporter = _Exporter(scene)
+    for instance in depsgraph.object_instances:
+        exporter.add_instance(instance)
+    return exporter.finish()
+
+
+class _Exporter:
+    def __init__(self, scene):
+        self.blender_scene = scene
+        self.collector = _Collector()
+        self.lights = []
+        self.receivers = []
+        self.warnings = []
+        self.materials = {}
+        self.textures = []
+        self.texture_of_image = {}
+        self.emission_of_material = {}
+        self.data_users = Counter(o.data for o in bpy.data.objects if o.type == 'MESH')
+
+    def warn(self, message):
+        if message not in self.warnings:
+            self.warnings.append(message)
+
+    # ------------------------------------------------------------------ objects
+    def add_instance(self, instance):
+        obj = instance.object
+        original = obj.original
+        if original.hide_render or (instance.is_instance and instance.parent.original.hide_render):
+            return
+        matrix = np.array(instance.matrix_world, dtype=np.float64)
+        if obj.type == 'LIGHT':
+            self.add_light(obj, matrix)
+        elif obj.type in {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT'}:
+            name = original.name
+            if instance.is_instance:
+                name = f"{instance.parent.original.name}/{original.name}"
+            self.add_mesh_object(obj, name, matrix, instance.is_instance)
+
+    def add_mesh_object(self, obj, name, matrix, is_instance):
+        original = obj.original
+        try:
+            mesh = obj.to_mesh()
+        except RuntimeError:
+            return
+        try:
+            if mesh is None or not len(mesh.polygons):
+                return
+            wants_receive = original.luxel.receive
+            receive = wants_receive and self._can_receive(obj, mesh, name, is_instance)
+            self._add_mesh(obj, mesh, name, matrix, receive,
+                           original.luxel.resolution_scale)
+        finally:
+            obj.to_mesh_clear()
+
+    def _can_receive(self, obj, mesh, name, is_instance):
+        original = obj.original
+        if is_instance:
+            self.warn(f"'{name}' is an instance: it occludes and emits but gets no lightmap "
+                      "(make the instance real to bake one)")
+            return False
+        if original.type != 'MESH':
+            self.warn(f"'{name}' is a {original.type.lower()}: it occludes and emits but gets no "
+                      "lightmap (convert it to a mesh to bake one)")
+            return False
+        if self.data_users[original.data] > 1:
+            self.warn(f"'{name}' shares its mesh '{original.data.name}' with other objects: it "
+                      "occludes and emits but gets no lightmap (Object > Relations > Make Single "
+                      "User, or turn off 'Receive Lightmap')")
+            return False
+        if (len(mesh.loops) != len(original.data.loops)
+                or len(mesh.polygons) != len(original.data.polygons)):
+            self.warn(f"'{name}': a modifier changes the topology, so the lightmap cannot be "
+                      "mapped onto the mesh; it occludes and emits but gets no lightmap (apply "
+                      "the modifier, or turn off 'Receive Lightmap')")
+            return False
+        if len(original.data.uv_layers) >= 8 and "LuxelLightmap" not in original.data.uv_layers:
+            raise SceneError(f"object '{name}' already has 8 UV maps, Blender's limit: remove "
+                             "one so Luxel can add its lightmap UV map", name)
+        return True
+
+    def _add_mesh(self, obj, mesh, name, matrix, receive, texel_scale):
+        triangles_count = len(mesh.loop_triangles)
+        if triangles_count == 0:
+            return
+        loops = _array(mesh.loop_triangles, "loops", np.int64, (triangles_count, 3))
+        material_index = _array(mesh.loop_triangles, "material_index", np.int64, (-1,))
+        loop_vertex = _array(mesh.loops, "vertex_index", np.int64, (-1,))
+        positions = _array(mesh.vertices, "co", np.float64, (-1, 3))
+        corner_normals = _array(mesh.corner_normals, "vector", np.float64, (-1, 3))
+
+        linear = matrix[:3, :3]
+        positions = positions @ linear.T + matrix[:3, 3]
+        normal_matrix = np.linalg.inv(linear).T
+        corner_normals = corner_normals @ normal_matrix.T
+        lengths = np.linalg.norm(corner_normals, axis=1, keepdims=True)
+        corner_normals = np.divide(corner_normals, lengths, out=np.zeros_like(corner_normals),
+                                   where=lengths > 0)
+        if np.linalg.det(linear) < 0:       # mirrored: keep the front faces in front
+            loops = loops[:, ::-1].copy()
+
+        # One solver vertex per (mesh vertex, corner normal): sharp edges split, smooth ones
+        # stay shared so that charts stay connected.
+        used_loops = loops.ravel()
+        keys = np.column_stack([loop_vertex[used_loops],
+                                np.round(corner_normals[used_loops] * 1e4).astype(np.int64)])
+        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        vertex_loops = used_loops[first]
+        vertices = positions[loop_vertex[vertex_loops]]
+        normals = corner_normals[vertex_loops]
+        triangles = inverse.reshape(-1, 3)
+
+        slots = [slot.material for slot in obj.material_slots] or [None]
+        infos = [self._material(material) for material in slots]
+        material_index = np.clip(material_index, 0, len(infos) - 1)
+        albedo = np.array([info.albedo for info in infos])[material_index]
+        emission = np.array([info.emission for info in infos])[material_index]
+        texture_index = np.array([info.texture for info in infos])[material_index]
+        albedo_uv = np.zeros((triangles_count, 3, 2))
+        for slot, info in enumerate(infos):
+            chosen = material_index == slot
+            if info.texture < 0 or not chosen.any():
+                continue
+            uv = self._uv_layer(mesh, info.uv_map, name, slots[slot])
+            if uv is None:
+                texture_index[chosen] = -1
+                albedo[chosen] = self.textures[info.texture][..., :3].mean(axis=(0, 1))
+            else:
+                albedo_uv[chosen] = uv[loops[chosen]]
+
+        object_index = self.collector.add_object(name, texel_scale)
+        first = self.collector.add(vertices, normals, triangles, object_index, albedo, emission,
+                                   True, receive, True, albedo_uv, texture_index)
+        if receive:
+            self.receivers.append(Receiver(name, object_index, first, loops))
+
+    def _uv_layer(self, mesh, uv_map, object_name, material):
+        layers = mesh.uv_layers
+        layer = layers.get(uv_map) if uv_map else next(
+            (layer for layer in layers if layer.active_render), None)
+        if layer is None:
+            self.warn(f"material '{material.name}' on '{object_name}': its image texture needs a "
+                      f"UV map{' ' + repr(uv_map) if uv_map else ''} the mesh lacks; the image's "
+                      "mean colour is used instead")
+            return None
+        return _array(layer.uv, "vector", np.float64, (-1, 2))
+
+    # ---------------------------------------------------------------- materials
+    def _material(self, material):
+        key = material.name if material is not None else None
+        if key not in self.materials:
+            self.materials[key] = self._read_material(material)
+            if material is not None and max(self.materials[key].emission) > 0:
+                self.emission_of_material[material.name] = self.materials[key].emission
+        return self.materials[key]
+
+    def _read_material(self, material):
+        info = _Material()
+        if material is None:
+            return info
+        tree = material.node_tree
+        output = _active_output(tree, 'ShaderNodeOutputMaterial') if tree else None
+        if output is None or not output.inputs["Surface"].is_linked:
+            info.albedo = _clamp_albedo(tuple(material.diffuse_color[:3]), material, self)
+            return info
+        shaders = _shader_nodes(output.inputs["Surface"].links[0].from_node)
+        diffuse = [n for n in shaders if n.bl_idname in ('ShaderNodeBsdfPrincipled',
+                                                         'ShaderNodeBsdfDiffuse')]
+        emitters = [n for n in shaders if n.bl_idname == 'ShaderNodeEmission']
+        others = [n for n in shaders if n not in diffuse and n not in emitters]
+        if others or len(diffuse) > 1:
+            self.warn(f"material '{material.name}': only one Principled or Diffuse BSDF and "
+                      "Emission nodes are read; the rest of its shader is approximated")
+        info.albedo = (0.0, 0.0, 0.0)
+        emission = np.zeros(3)
+        if diffuse:
+            node = diffuse[0]
+            colour = node.inputs["Base Color" if "Base Color" in node.inputs else "Color"]
+            info.albedo = self._colour_input(colour, material, info)
+            if node.bl_idname == 'ShaderNodeBsdfPrincipled':
+                emission += self._emission(node.inputs["Emission Color"],
+                                           node.inputs["Emission Strength"], material)
+        for node in emitters:
+            emission += self._emission(node.inputs["Color"], node.inputs["Strength"], material)
+        info.emission = tuple(emission)
+        return info
+
+    def _colour_input(self, socket, material, info):
+        if not socket.is_linked:
+            return _clamp_albedo(tuple(socket.default_value[:3]), material, self)
+        source = socket.links[0].from_node
+        if source.bl_idname == 'ShaderNodeTexImage' and source.image is not None:
+            info.texture = self._texture(source.image, material)
+            vector = source.inputs["Vector"]
+            if vector.is_linked and vector.links[0].from_node.bl_idname == 'ShaderNodeUVMap':
+                info.uv_map = vector.links[0].from_node.uv_map
+            elif vector.is_linked:
+                self.warn(f"material '{material.name}': the image texture's coordinates are "
+                          "not a UV map; the active render UV map is used")
+            return TEXTURE_TINT
+        self.warn(f"material '{material.name}': its base colour comes from a "
+                  f"'{source.name}' node, which Luxel cannot read; the socket's own colour is "
+                  "used instead")
+        return _clamp_albedo(tuple(socket.default_value[:3]), material, self)
+
+    def _texture(self, image, material):
+        if image.name not in self.texture_of_image:
+            width, height = image.size
+            if width == 0 or height == 0:
+                raise SceneError(f"material '{material.name}': image '{image.name}' has no "
+                                 "pixels (missing file?); fix the path or remove the node")
+            pixels = np.empty(width * height * 4, dtype=np.float32)
+            image.pixels.foreach_get(pixels)
+            pixels = pixels.reshape(height, width, 4)[..., :3].astype(np.float64)
+            if not image.is_float and image.colorspace_settings.name == 'sRGB':
+                pixels = _srgb_to_linear(pixels)
+            if pixels.max() > MAX_ALBEDO:
+                self.warn(f"image '{image.name}' has colours of 1 or more; they are lowered to "
+                          f"{MAX_ALBEDO} (a diffuse surface cannot reflect all light)")
+            self.textures.append(np.clip(pixels, 0.0, MAX_ALBEDO))
+            self.texture_of_image[image.name] = len(self.textures) - 1
+        return self.texture_of_image[image.name]
+
+    def _emission(self, colour, strength, material):
+        if colour.is_linked or strength.is_linked:
+            self.warn(f"material '{material.name}': emission driven by other nodes is "
+                      "approximated by the sockets' own values")
+        value = np.array(colour.default_value[:3]) * float(strength.default_value)
+        return np.maximum(value, 0.0)
+
+    # ------------------------------------------------------------------- lights
+    def add_light(self, obj, matrix):
+        light = obj.data
+        name = obj.original.name
+        colour = np.array(light.color[:3], dtype=np.float64)
+        if getattr(light, "use_temperature", False):
+            colour = colour * np.array(light.temperature_color[:3])
+        power = float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
+        if power <= 0.0 or colour.max() <= 0.0:
+            return
+        position = matrix[:3, 3]
+        direction = -matrix[:3, 2]
+        direction = direction / np.linalg.norm(direction)
+        if light.type == 'POINT':
+            self.lights.append(PointLight(tuple(position), power, tuple(colour), name))
+        elif light.type == 'SPOT':
+            if light.use_square:
+                self.warn(f"light '{name}': square spots are baked as round cones")
+            self.lights.append(SpotLight(tuple(position), power, tuple(colour), name,
+                                         tuple(direction), float(light.spot_size),
+                                         float(light.spot_blend)))
+        elif light.type == 'SUN':
+            self.lights.append(SunLight(tuple(direction), power, tuple(colour), name))
+        elif light.type == 'AREA':
+            self._add_area_light(light, name, matrix, power, colour)
+
+    def _add_area_light(self, light, name, matrix, power, colour):
+        if light.spread < math.pi - 1e-4:
+            self.warn(f"light '{name}': a spread below 180 degrees is baked as 180")
+        if not getattr(light, "normalize", True):
+            self.warn(f"light '{name}': 'Normalize' off is baked as on (power spread over "
+                      "the light's area)")
+        half_x = 0.5 * light.size
+        half_y = 0.5 * (light.size_y if light.shape in ('RECTANGLE', 'ELLIPSE') else light.size)
+        if light.shape in ('DISK', 'ELLIPSE'):
+            angles = 2.0 * math.pi * np.arange(DISK_SEGMENTS) / DISK_SEGMENTS
+            outline = np.column_stack([half_x * np.cos(angles), half_y * np.sin(angles)])
+        else:
+            outline = np.array([[-half_x, -half_y], [half_x, -half_y], [half_x, half_y],
+                                [-half_x, half_y]])
+        local = np.column_stack([outline, np.zeros(len(outline))])
+        vertices = np.vstack([np.zeros(3), local]) @ matrix[:3, :3].T + matrix[:3, 3]
+        count = len(outline)
+        # Clockwise seen from +Z, so the front faces the light's -Z, where it shines.
+        triangles = np.array([[0, (i + 1) % count + 1, i + 1] for i in range(count)])
+        corners = vertices[triangles]
+        area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
+                                             corners[:, 2] - corners[:, 0]), axis=1).sum()
+        if area <= 0.0:
+            raise SceneError(f"area light '{name}' has zero size; give it a size above 0", name)
+        radiance = power * colour / (math.pi * area)
+        normal = -matrix[:3, 2] / np.linalg.norm(matrix[:3, 2])
+        obj = self.collector.add_object(name)
+        self.collector.add(vertices, np.tile(normal, (len(vertices), 1)), triangles, obj,
+                           np.zeros((count, 3)), np.tile(radiance, (count, 1)), False, False,
+                           False, np.zeros((count, 3, 2)), np.full(count, -1))
+
+    # -------------------------------------------------------------------- world
+    def sky(self):
+        world = self.blender_scene.world
+        if world is None:
+            return (0.0, 0.0, 0.0)
+        tree = world.node_tree
+        output = _active_output(tree, 'ShaderNodeOutputWorld') if tree else None
+        if output is None:
+            return tuple(world.color)
+        if not output.inputs["Surface"].is_linked:
+            return (0.0, 0.0, 0.0)
+        node = output.inputs["Surface"].links[0].from_node
+        if node.bl_idname != 'ShaderNodeBackground':
+            self.warn(f"world '{world.name}': only a Background node is read; the world is "
+                      "baked as its viewport colour")
+            return tuple(world.color)
+        colour, strength = node.inputs["Color"], node.inputs["Strength"]
+        if colour.is_linked or strength.is_linked:
+            self.warn(f"world '{world.name}': a textured or sky world is baked as the "
+                      "Background node's own uniform colour")
+        return tuple(np.maximum(np.array(colour.default_value[:3]) *
+                                float(strength.default_value), 0.0))
+
+    def finish(self):
+        c = self.collector
+        if not c.triangles:
+            raise SceneError("the scene has no visible mesh to bake: add a mesh, or make one "
+                             "renderable (its camera icon in the outliner)")
+        scene = Scene(
+            vertices=np.concatenate(c.vertices), triangles=np.concatenate(c.triangles),
+            normals=np.concatenate(c.normals), albedo=np.concatenate(c.albedo),
+            emission=np.concatenate(c.emission),
+            emission_two_sided=np.concatenate(c.two_sided),
+            receive=np.concatenate(c.receive), occlude=np.concatenate(c.occlude),
+            object_index=np.concatenate(c.object_index), object_names=c.object_names,
+            object_texel_scale=c.texel_scale, albedo_uv=np.concatenate(c.albedo_uv),
+            albedo_texture_index=np.concatenate(c.texture_index),
+            albedo_textures=self.textures, lights=self.lights, sky=self.sky())
+        return Export(scene, self.receivers, self.warnings, self.emission_of_material)
+
+
+# ---------------------------------------------------------------------- helpers
+def _array(collection, attribute, dtype, shape):
+    width = int(np.prod(shape[1:])) if len(shape) > 1 else 1
+    flat = np.empty(len(collection) * width, dtype=dtype)
+    collection.foreach_get(attribute, flat)
+    return flat.reshape(shape)
+
+
+def _active_output(tree, idname):
+    outputs = [n for n in tree.nodes if n.bl_idname == idname]
+    for node in outputs:
+        if node.is_active_output and getattr(node, "target", "ALL") in ('ALL', 'CYCLES'):
+            return node
+    return outputs[0] if outputs else None
+
+
+def _shader_nodes(node, depth=0):
+    """The shader nodes feeding a surface, through Mix and Add shaders."""
+    if node.bl_idname in ('ShaderNodeMixShader', 'ShaderNodeAddShader') and depth < 16:
+        found = []
+        for socket in node.inputs:
+            if socket.type == 'SHADER' and socket.is_linked:
+                found += _shader_nodes(socket.links[0].from_node, depth + 1)
+        return found
+    if node.bl_idname == 'NodeReroute' and node.inputs[0].is_linked and depth < 16:
+        return _shader_nodes(node.inputs[0].links[0].from_node, depth + 1)
+    return [node]
+
+
+def _clamp_albedo(colour, material, exporter):
+    if max(colour) > MAX_ALBEDO:
+        exporter.warn(f"material '{material.name}': a base colour of 1 or more is lowered to "
+                      f"{MAX_ALBEDO} (a diffuse surface cannot reflect all light)")
+    return tuple(min(max(value, 0.0), MAX_ALBEDO) for value in colour)
+
+
+def _srgb_to_linear(values):
+    return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4)

@@ -1,0 +1,108 @@
+"""``luxel.bake``: modal with a progress bar from the UI (Esc cancels), synchronous from scripts
+and in background mode. Luxel's typed errors become reports naming the object and the fix."""
+import bpy
+
+from ..native import LuxelError
+from .bake import BakeJob
+
+TIMER_SECONDS = 0.05
+STEP_SECONDS = 0.1       # GPU work per timer tick: long enough to progress, short for the UI
+
+
+class LUXEL_OT_bake(bpy.types.Operator):
+    """Bake diffuse global illumination into lightmaps with Luxel's GPU radiosity"""
+    bl_idname = "luxel.bake"
+    bl_label = "Bake Lightmaps"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    _job = None
+    _timer = None
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and context.mode == 'OBJECT'
+
+    def execute(self, context):
+        job = self._start(context)
+        if job is None:
+            return {'CANCELLED'}
+        try:
+            while not job.step(seconds=1.0):
+                pass
+            return self._finish(job)
+        except LuxelError as error:
+            job.release()
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+
+    def invoke(self, context, event):
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        self._job = self._start(context)
+        if self._job is None:
+            return {'CANCELLED'}
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(TIMER_SECONDS, window=context.window)
+        wm.progress_begin(0, 1000)
+        wm.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        if event.type == 'ESC':
+            self._end_modal(context)
+            self._job.release()
+            self.report({'WARNING'}, "Luxel bake cancelled; nothing was changed")
+            return {'CANCELLED'}
+        if event.type != 'TIMER':
+            return {'PASS_THROUGH'}
+        try:
+            done = self._job.step(STEP_SECONDS)
+        except LuxelError as error:
+            self._end_modal(context)
+            self._job.release()
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+        context.window_manager.progress_update(int(1000 * self._job.fraction()))
+        context.workspace.status_text_set(self._job.status() + "  (Esc to cancel)")
+        if not done:
+            return {'RUNNING_MODAL'}
+        self._end_modal(context)
+        return self._finish(self._job)
+
+    def _start(self, context):
+        try:
+            job = BakeJob(context)
+        except LuxelError as error:
+            self.report({'ERROR'}, str(error))
+            return None
+        for warning in job.warnings:
+            self.report({'WARNING'}, warning)
+        return job
+
+    def _finish(self, job):
+        try:
+            job.finish()
+        except LuxelError as error:
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+        stats = job.scene.luxel.stats
+        self.report({'INFO'}, f"Luxel: {stats.texels:,} texels, {stats.shots} shots, "
+                              f"{stats.unshot:.2f} % unshot, {stats.seconds:.1f} s")
+        return {'FINISHED'}
+
+    def _end_modal(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+
+
+_register, _unregister = bpy.utils.register_classes_factory((LUXEL_OT_bake,))
+
+
+def register():
+    _register()
+
+
+def unregister():
+    _unregister()

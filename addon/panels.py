@@ -1,0 +1,84 @@
+"""Luxel in the Properties editor: Render properties for the bake, Object properties for each
+object's lightmap."""
+import bpy
+
+
+class LUXEL_PT_render(bpy.types.Panel):
+    bl_label = "Luxel Lightmaps"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.luxel
+        layout.operator("luxel.bake", icon='RENDER_STILL')
+        column = layout.column()
+        column.prop(settings, "projection")
+        column.prop(settings, "texel_density")
+        column.prop(settings, "threshold")
+        column.prop(settings, "max_shots")
+        column.prop(settings, "hemicube_resolution")
+        column.prop(settings, "shoot_level")
+        column.prop(settings, "max_atlas_size")
+        column.prop(settings, "output")
+        if settings.output == 'FILES':
+            column.prop(settings, "directory")
+        layout.prop(settings, "show_baked")
+
+
+class LUXEL_PT_render_stats(bpy.types.Panel):
+    bl_label = "Last Bake"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "render"
+    bl_parent_id = "LUXEL_PT_render"
+
+    def draw(self, context):
+        stats = context.scene.luxel.stats
+        if not stats.valid:
+            self.layout.label(text="Not baked yet")
+            return
+        column = self.layout.column(align=True)
+        column.label(text=f"Texels: {stats.texels:,}")
+        column.label(text=f"Shots: {stats.shots:,}")
+        column.label(text=f"Time: {stats.seconds:.1f} s")
+        column.label(text=f"Unshot: {stats.unshot:.2f} %")
+        column.label(text=f"Images: {stats.pages}")
+
+
+class LUXEL_PT_object(bpy.types.Panel):
+    bl_label = "Luxel Lightmap"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "object"
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and context.object.type == 'MESH'
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.object.luxel
+        layout.prop(settings, "receive")
+        row = layout.row()
+        row.active = settings.receive
+        row.prop(settings, "resolution_scale")
+        if settings.image is not None:
+            column = layout.column(align=True)
+            column.label(text=f"Image: {settings.image.name}", icon='IMAGE_DATA')
+            column.label(text=f"UV map: {settings.uv_map}", icon='UV')
+
+
+_register, _unregister = bpy.utils.register_classes_factory(
+    (LUXEL_PT_render, LUXEL_PT_render_stats, LUXEL_PT_object))
+
+
+def register():
+    _register()
+
+
+def unregister():
+    _unregister()

@@ -1,0 +1,97 @@
+"""Luxel's settings and results, saved in the .blend: ``scene.luxel`` and ``object.luxel``."""
+import bpy
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
+                       StringProperty)
+
+from ..native import Settings
+
+_DEFAULTS = Settings()
+
+PROJECTIONS = [
+    ("HEMICUBE", "Hemicube", "Five rasterised faces around each shooter (the paper's baseline)"),
+]
+
+OUTPUTS = [
+    ("PACK", "Pack into .blend", "Lightmaps are packed into the .blend file as EXR"),
+    ("FILES", "EXR files", "Lightmaps are written as EXR files to a folder next to the .blend"),
+]
+
+
+def _show_baked_changed(settings, context):
+    from . import display
+    display.set_baked_lighting(context.scene, settings.show_baked)
+
+
+class LuxelBakeStats(bpy.types.PropertyGroup):
+    texels: IntProperty(name="Texels", description="Lightmap texels covered by surfaces")
+    shots: IntProperty(name="Shots", description="Patches and lights shot")
+    seconds: FloatProperty(name="Seconds", description="Wall-clock time of the bake")
+    unshot: FloatProperty(name="Unshot", subtype='PERCENTAGE',
+                          description="Share of the emitted power still unshot at the end")
+    pages: IntProperty(name="Pages", description="Lightmap images written")
+    valid: BoolProperty(name="Baked", description="A bake has finished in this scene")
+
+
+class LuxelSceneSettings(bpy.types.PropertyGroup):
+    projection: EnumProperty(name="Projection", items=PROJECTIONS, default="HEMICUBE",
+                             description="How visibility is sampled around each shooter")
+    texel_density: FloatProperty(name="Texel Density", default=_DEFAULTS.texel_density,
+                                 min=0.01, soft_max=1000.0,
+                                 description="Lightmap texels per metre of surface")
+    max_shots: IntProperty(name="Max Shots", default=_DEFAULTS.max_shots, min=1,
+                           description="Stop after this many shots")
+    threshold: FloatProperty(name="Threshold", default=_DEFAULTS.threshold, min=0.0, max=0.99,
+                             precision=4, description="Stop when this fraction of the emitted "
+                             "power is left unshot")
+    hemicube_resolution: IntProperty(name="Hemicube Resolution",
+                                     default=_DEFAULTS.hemicube_resolution, min=8, max=4096,
+                                     description="Texels on a side of each visibility face")
+    shoot_level: IntProperty(name="Shoot Level", default=_DEFAULTS.shoot_level, min=0, max=6,
+                             description="Mip level shot from: a shooter spans 2^level texels")
+    max_atlas_size: IntProperty(name="Max Image Size", default=_DEFAULTS.max_atlas_size,
+                                min=64, max=16384,
+                                description="Largest lightmap side; more images when exceeded")
+    output: EnumProperty(name="Output", items=OUTPUTS, default="PACK",
+                         description="Where the lightmap images are stored")
+    directory: StringProperty(name="Folder", default="//lightmaps", subtype='DIR_PATH',
+                              description="Folder for EXR lightmaps (relative to the .blend)")
+    show_baked: BoolProperty(name="Show Baked Lighting", default=False,
+                             update=_show_baked_changed,
+                             description="Display the baked lightmaps in EEVEE, Cycles and "
+                             "Workbench; turning it off restores the materials exactly")
+    stats: PointerProperty(type=LuxelBakeStats)
+
+    def solver_settings(self):
+        return Settings(texel_density=self.texel_density, max_atlas_size=self.max_atlas_size,
+                        hemicube_resolution=self.hemicube_resolution,
+                        shoot_level=self.shoot_level, threshold=self.threshold,
+                        max_shots=self.max_shots)
+
+
+class LuxelObjectSettings(bpy.types.PropertyGroup):
+    receive: BoolProperty(name="Receive Lightmap", default=True,
+                          description="Bake a lightmap for this object (it occludes and emits "
+                                      "either way)")
+    resolution_scale: FloatProperty(name="Resolution Scale", default=1.0, min=0.01,
+                                    soft_max=16.0,
+                                    description="Multiplies the scene's texel density here")
+    image: PointerProperty(type=bpy.types.Image, name="Lightmap",
+                           description="Lightmap image of the last bake")
+    uv_map: StringProperty(name="Lightmap UV Map",
+                           description="UV map that the last bake added to this mesh")
+
+
+_classes = (LuxelBakeStats, LuxelSceneSettings, LuxelObjectSettings)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(_classes)
+
+
+def register():
+    _register_classes()
+    bpy.types.Scene.luxel = PointerProperty(type=LuxelSceneSettings)
+    bpy.types.Object.luxel = PointerProperty(type=LuxelObjectSettings)
+
+
+def unregister():
+    del bpy.types.Object.luxel
+    del bpy.types.Scene.luxel
+    _unregister_classes()
