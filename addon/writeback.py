@@ -37,7 +37,7 @@ def write_back(scene, export, atlas, pages):
     if directory is not None:
         os.makedirs(directory, exist_ok=True)
 
-    previous = {image for image in bpy.data.images if PAGE_KEY in image
+    previous = {image.name for image in bpy.data.images if PAGE_KEY in image
                 and image.name.startswith(image_name(scene, ""))}
     images = [_page_image(scene, index, page, directory) for index, page in enumerate(pages)]
 
@@ -58,8 +58,8 @@ def write_back(scene, export, atlas, pages):
     for obj in scene.objects:
         if obj.name not in baked and obj.luxel.uv_map:
             clear_object(obj)
-    for image in previous - set(images):
-        bpy.data.images.remove(image)
+    for name in previous - {image.name for image in images}:
+        bpy.data.images.remove(bpy.data.images[name])
     return images
 
 
@@ -86,7 +86,7 @@ def _page_image(scene, index, page, directory):
         image = None
     if directory is not None:
         path = os.path.join(directory, bpy.path.clean_name(name) + ".exr")
-        write_exr(path, pixels[..., :3])
+        write_exr(path, pixels)
         if image is None:
             image = bpy.data.images.load(path)
             image.name = name

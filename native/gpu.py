@@ -56,7 +56,12 @@ class _CurrentEGL:
                 egl.eglGetCurrentSurface(0x305A), context)
 
     def restore(self, saved):
-        self._egl.eglMakeCurrent(*saved)
+        if saved is not None:
+            self._egl.eglMakeCurrent(*saved)
+        elif self._egl.eglGetCurrentContext():
+            # Nothing was current: leave nothing current, or a context Luxel destroys later
+            # would stay current on this thread for the next user of EGL (Blender).
+            self._egl.eglMakeCurrent(self._egl.eglGetCurrentDisplay(), None, None, None)
 
 
 class _CurrentGLX:
@@ -81,7 +86,10 @@ class _CurrentGLX:
                 glx.glXGetCurrentReadDrawable(), context)
 
     def restore(self, saved):
-        self._glx.glXMakeContextCurrent(*saved)
+        if saved is not None:
+            self._glx.glXMakeContextCurrent(*saved)
+        elif self._glx.glXGetCurrentContext():
+            self._glx.glXMakeContextCurrent(self._glx.glXGetCurrentDisplay(), 0, 0, None)
 
 
 def _context_trackers():
@@ -107,8 +115,7 @@ def _save_current():
 
 def _restore(saved):
     for tracker, state in saved:
-        if state is not None:
-            tracker.restore(state)
+        tracker.restore(state)
 
 
 @contextmanager

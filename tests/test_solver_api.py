@@ -107,6 +107,24 @@ def test_own_context_is_created_and_released():
     assert solver.ctx is None
 
 
+def test_a_solver_leaves_no_context_current_when_none_was():
+    """Blender finds the thread as it left it: a destroyed context must not stay current."""
+    import ctypes
+    import ctypes.util
+    egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
+    egl.eglGetCurrentContext.restype = ctypes.c_void_p
+    egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+    egl.eglGetCurrentDisplay.restype = ctypes.c_void_p
+    if egl.eglGetCurrentContext():
+        egl.eglMakeCurrent(egl.eglGetCurrentDisplay(), None, None, None)
+    solver = Solver(scenes.furnace_cube(0.5), Settings(texel_density=4, max_shots=3))
+    assert not egl.eglGetCurrentContext()
+    solver.run()
+    assert not egl.eglGetCurrentContext()
+    solver.release()
+    assert not egl.eglGetCurrentContext()
+
+
 def test_bake_restores_the_callers_current_context(ctx):
     """Inside Blender another context is current; the solver must hand it back."""
     other = moderngl.create_standalone_context(backend="egl")

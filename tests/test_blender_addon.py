@@ -1,0 +1,374 @@
+"""The extension inside Blender (the bpy module, headless): registration, export, bake,
+write-back, the baked-lighting switch, renders alongside Luxel's GL context, the command line."""
+import math
+
+import numpy as np
+import pytest
+
+import blender_session
+
+bpy = blender_session.blender()
+
+
+# ------------------------------------------------------------------ scene helpers
+def material(name, colour, emission=0.0):
+    mat = bpy.data.materials.new(name)
+    principled = mat.node_tree.nodes["Principled BSDF"]
+    principled.inputs["Base Color"].default_value = (*colour, 1.0)
+    if emission:
+        principled.inputs["Emission Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+        principled.inputs["Emission Strength"].default_value = emission
+    return mat
+
+
+def mesh_object(scene, name, vertices, faces, mat=None, location=(0, 0, 0)):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices, [], faces)
+    if mat is not None:
+        mesh.materials.append(mat)
+    obj = bpy.data.objects.new(name, mesh)
+    obj.location = location
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def cube(scene, name, size, location, mat=None, inward=False):
+    h = size / 2
+    vertices = [(x, y, z) for x in (-h, h) for y in (-h, h) for z in (-h, h)]
+    faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    if inward:
+        faces = [face[::-1] for face in faces]
+    return mesh_object(scene, name, vertices, faces, mat, location)
+
+
+def room_scene(light=True):
+    """A closed 4 m room with a block floating 10 cm over its floor and a point light."""
+    scene = blender_session.empty_file()
+    cube(scene, "room", 4.0, (0, 0, 2), material("walls", (0.6, 0.6, 0.6)), inward=True)
+    cube(scene, "block", 1.0, (0.5, 0.3, 0.6), material("block", (0.5, 0.2, 0.2)))
+    if light:
+        lamp = bpy.data.objects.new("lamp", bpy.data.lights.new("lamp", 'POINT'))
+        lamp.data.energy = 400.0
+        lamp.location = (-0.8, -0.6, 3.0)
+        scene.collection.objects.link(lamp)
+    scene.luxel.texel_density = 6.0
+    scene.luxel.threshold = 0.02
+    return scene
+
+
+def mesh_snapshot(scene):
+    return {obj.name: (len(obj.data.vertices), len(obj.data.polygons),
+                       [v.co[:] for v in obj.data.vertices],
+                       [slot.material.name if slot.material else None
+                        for slot in obj.material_slots])
+            for obj in scene.objects if obj.type == 'MESH'}
+
+
+def node_tree_snapshot():
+    """Everything about every material's nodes that a user could see or render."""
+    state = {}
+    for mat in bpy.data.materials:
+        tree = mat.node_tree
+        nodes = []
+        for node in tree.nodes:
+            inputs = []
+            for socket in node.inputs:
+                value = getattr(socket, "default_value", None)
+                inputs.append((socket.identifier, tuple(value) if hasattr(value, "__len__")
+                               else value))
+            nodes.append((node.name, node.bl_idname, node.label, tuple(node.location),
+                          getattr(node, "is_active_output", None), tuple(inputs)))
+        links = sorted((l.from_node.name, l.from_socket.identifier, l.to_node.name,
+                        l.to_socket.identifier) for l in tree.links)
+        active = tree.nodes.active.name if tree.nodes.active else None
+        state[mat.name] = (nodes, links, active, sorted(mat.keys()))
+    return state
+
+
+def lightmap_pixels(obj):
+    image = obj.luxel.image
+    pixels = np.empty(image.size[0] * image.size[1] * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    return pixels.reshape(image.size[1], image.size[0], 4)
+
+
+def texels_of(obj):
+    """Lightmap texels under the object's UV triangles' centroids (one per face corner fan)."""
+    mesh = obj.data
+    image = obj.luxel.image
+    uv = np.empty(len(mesh.loops) * 2)
+    mesh.uv_layers[obj.luxel.uv_map].uv.foreach_get("vector", uv)
+    uv = uv.reshape(-1, 2)
+    pixels = lightmap_pixels(obj)
+    values = []
+    for polygon in mesh.polygons:
+        centre = uv[list(polygon.loop_indices)].mean(axis=0)
+        x, y = (centre * image.size).astype(int)
+        values.append(pixels[y, x, :3])
+    return np.array(values)
+
+
+def run_cli(argv):
+    return blender_session.addon().addon.cli.execute(argv)
+
+
+# --------------------------------------------------------------------------- tests
+def test_enable_disable_repeatedly_leaves_nothing_registered():
+    import addon_utils
+    for _ in range(3):
+        addon_utils.disable(blender_session.MODULE)
+        assert not hasattr(bpy.types.Scene, "luxel")
+        assert not hasattr(bpy.types.Object, "luxel")
+        assert not hasattr(bpy.types, "LUXEL_OT_bake")
+        assert not hasattr(bpy.types, "LUXEL_PT_render")
+        addon_utils.enable(blender_session.MODULE, default_set=True)
+        assert hasattr(bpy.types.Scene, "luxel") and hasattr(bpy.types, "LUXEL_OT_bake")
+    room_scene()
+    assert bpy.ops.luxel.bake.poll()
+
+
+def test_bake_writes_finite_lightmaps_and_uv_maps_and_leaves_meshes_alone():
+    scene = room_scene()
+    before = mesh_snapshot(scene)
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    assert mesh_snapshot(scene) == before
+    for name in ("room", "block"):
+        obj = scene.objects[name]
+        assert obj.luxel.uv_map in obj.data.uv_layers
+        assert obj.luxel.image is not None
+        values = texels_of(obj)
+        assert np.isfinite(values).all()
+        assert (values.sum(axis=1) > 0).all(), f"{name} has an unlit face"
+    stats = scene.luxel.stats
+    assert stats.valid and stats.texels > 0 and stats.shots > 0
+    assert stats.unshot <= 100 * scene.luxel.threshold or stats.shots == scene.luxel.max_shots
+
+
+def test_rebake_replaces_results_and_leaves_no_orphans():
+    scene = room_scene()
+    bpy.ops.luxel.bake()
+    block = scene.objects["block"]
+    block.luxel.receive = False
+    images_before = {image.name for image in bpy.data.images}
+    bpy.ops.luxel.bake()
+    assert "LuxelLightmap" not in block.data.uv_layers
+    assert block.luxel.image is None and block.luxel.uv_map == ""
+    assert {image.name for image in bpy.data.images} == images_before
+    assert all(image.users > 0 for image in bpy.data.images)
+
+
+def test_point_light_on_the_floor_matches_cos_over_r_squared():
+    """Dark walls (rho 0.1): right under the lamp the texel holds rho I cos / (pi d^2) plus a
+    bounce of about rho^2 P / (pi A (1 - rho)) = 1.5 % of the room's light, 13 % of that."""
+    scene = room_scene()
+    scene.objects["block"].hide_render = True
+    walls = bpy.data.materials["walls"].node_tree.nodes["Principled BSDF"]
+    walls.inputs["Base Color"].default_value = (0.1, 0.1, 0.1, 1.0)
+    bpy.ops.luxel.bake()
+    room = scene.objects["room"]
+    pixels = lightmap_pixels(room)
+    uv = np.empty(len(room.data.loops) * 2)
+    room.data.uv_layers["LuxelLightmap"].uv.foreach_get("vector", uv)
+    floor = next(p for p in room.data.polygons if p.normal.z > 0.9 and p.center.z < 0.01)
+    loops = list(floor.loop_indices)
+    corners_uv = uv.reshape(-1, 2)[loops]
+    corners = np.array([room.matrix_world @ room.data.vertices[v].co for v in floor.vertices])
+    # The texel at the point of the floor right under the lamp, by bilinear inverse on the
+    # axis-aligned floor square.
+    s = (-0.8 - corners[:, 0].min()) / 4.0
+    t = (-0.6 - corners[:, 1].min()) / 4.0
+    order = np.lexsort((corners[:, 1], corners[:, 0]))  # (-,-), (-,+), (+,-), (+,+)
+    c = corners_uv[order]
+    point = (1 - s) * (1 - t) * c[0] + (1 - s) * t * c[1] + s * (1 - t) * c[2] + s * t * c[3]
+    x, y = (point * room.luxel.image.size).astype(int)
+    direct = 0.1 * 400.0 / (4 * math.pi) / math.pi / 3.0 ** 2
+    measured = pixels[y, x, 0]
+    assert direct < measured < 1.25 * direct
+
+
+def test_bake_reports_a_scene_without_light_and_changes_nothing():
+    scene = room_scene(light=False)
+    before = mesh_snapshot(scene)
+    with pytest.raises(RuntimeError, match="no light"):
+        bpy.ops.luxel.bake()
+    assert mesh_snapshot(scene) == before
+    assert not any("LuxelLightmap" in obj.data.uv_layers for obj in scene.objects
+                   if obj.type == 'MESH')
+    assert not bpy.data.images
+
+
+def test_cancelled_bake_leaves_the_scene_as_it_was():
+    scene = room_scene()
+    addon = blender_session.addon().addon
+    job = addon.bake.BakeJob(bpy.context)
+    job.step(0.2)
+    job.release()           # what Esc does in the modal operator
+    assert not bpy.data.images
+    assert not any("LuxelLightmap" in obj.data.uv_layers for obj in scene.objects
+                   if obj.type == 'MESH')
+    assert not scene.luxel.stats.valid
+
+
+def test_hidden_instanced_and_modified_objects_export_as_they_render():
+    scene = room_scene()
+    export = blender_session.addon().addon.export
+    hidden = cube(scene, "hidden", 0.5, (1, 1, 1), material("grey", (0.5, 0.5, 0.5)))
+    hidden.hide_render = True
+    arrayed = cube(scene, "arrayed", 0.2, (-1, 1, 0.1), material("grey2", (0.5, 0.5, 0.5)))
+    modifier = arrayed.modifiers.new("array", 'ARRAY')
+    modifier.count = 3
+    collection = bpy.data.collections.new("props")
+    prop = cube(bpy.context.scene, "prop", 0.3, (0, 0, 0), material("grey3", (0.4,) * 3))
+    bpy.context.scene.collection.objects.unlink(prop)
+    collection.objects.link(prop)
+    instancer = bpy.data.objects.new("instancer", None)
+    instancer.instance_type = 'COLLECTION'
+    instancer.instance_collection = collection
+    instancer.location = (1.2, -1.2, 0.15)
+    scene.collection.objects.link(instancer)
+
+    result = export.export_scene(bpy.context)
+    names = result.scene.object_names
+    assert "hidden" not in names
+    arrayed_index = names.index("arrayed")
+    assert (result.scene.object_index == arrayed_index).sum() == 3 * 12
+    instance_index = names.index("instancer/prop")
+    corners = result.scene.vertices[result.scene.triangles[
+        result.scene.object_index == instance_index]]
+    np.testing.assert_allclose(corners.reshape(-1, 3).mean(axis=0), (1.2, -1.2, 0.15), atol=1e-6)
+    receivers = {receiver.object_name for receiver in result.receivers}
+    assert receivers == {"room", "block"}
+    assert any("arrayed" in warning and "topology" in warning for warning in result.warnings)
+    assert any("instancer/prop" in warning for warning in result.warnings)
+
+
+def test_blender_lights_export_in_cycles_units():
+    scene = room_scene(light=False)
+    export = blender_session.addon().addon.export
+    area = bpy.data.objects.new("panel", bpy.data.lights.new("panel", 'AREA'))
+    area.data.shape = 'RECTANGLE'
+    area.data.size, area.data.size_y = 0.5, 0.25
+    area.data.energy = 20.0
+    area.location = (0, 0, 3.5)
+    scene.collection.objects.link(area)
+    spot = bpy.data.objects.new("spot", bpy.data.lights.new("spot", 'SPOT'))
+    spot.data.energy = 100.0
+    spot.data.spot_size = math.radians(60)
+    spot.data.spot_blend = 0.3
+    spot.location = (1, 0, 3)
+    spot.rotation_euler = (math.radians(90), 0, 0)      # -Z turned to +Y
+    scene.collection.objects.link(spot)
+
+    result = export.export_scene(bpy.context).scene
+    panel = result.object_index == result.object_names.index("panel")
+    # Area light: radiance P / (pi A), one-sided, facing -Z, casting no shadow.
+    np.testing.assert_allclose(result.emission[panel], 20.0 / (math.pi * 0.125), rtol=1e-6)
+    assert not result.occlude[panel].any() and not result.emission_two_sided[panel].any()
+    corners = result.vertices[result.triangles[panel]]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    assert (normals[:, 2] < 0).all()
+    light = next(l for l in result.lights if l.name == "spot")
+    np.testing.assert_allclose(light.direction, (0, 1, 0), atol=1e-6)
+    assert light.spot_size == pytest.approx(math.radians(60)) and light.power == 100.0
+
+
+def test_world_colour_is_a_uniform_sky():
+    scene = room_scene(light=False)
+    background = scene.world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (0.2, 0.4, 0.6, 1.0)
+    background.inputs["Strength"].default_value = 2.0
+    result = blender_session.addon().addon.export.export_scene(bpy.context).scene
+    np.testing.assert_allclose(result.sky, (0.4, 0.8, 1.2), rtol=1e-6)
+
+
+def test_workbench_renders_between_and_during_bakes_change_nothing(tmp_path):
+    scene = room_scene()
+    scene.render.engine = 'BLENDER_WORKBENCH'
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    camera.location = (0, -1.9, 1.5)
+    camera.rotation_euler = (math.radians(90), 0, 0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    bpy.ops.luxel.bake()
+    first = lightmap_pixels(scene.objects["room"]).copy()
+
+    renders = []
+
+    def render():
+        renders.append(tmp_path / f"render{len(renders)}.png")
+        scene.render.filepath = str(renders[-1])
+        bpy.ops.render.render(write_still=True)
+
+    render()
+    job = blender_session.addon().addon.bake.BakeJob(bpy.context)
+    job.step(0.3)
+    render()            # Blender's GL in the middle of Luxel's bake
+    while not job.step(1.0):
+        pass
+    job.finish()
+    render()
+    second = lightmap_pixels(scene.objects["room"])
+    np.testing.assert_allclose(second, first, rtol=1e-5, atol=1e-7)
+    for path in renders:
+        image = bpy.data.images.load(str(path))
+        assert tuple(image.size) == (64, 48)
+        assert max(image.pixels[:]) > 0.0
+
+
+def test_show_baked_lighting_on_then_off_restores_node_trees_exactly():
+    scene = room_scene()
+    bpy.ops.luxel.bake()
+    walls = bpy.data.materials["walls"]
+    before = node_tree_snapshot()
+    scene.luxel.show_baked = True
+    output = next(n for n in walls.node_tree.nodes if n.bl_idname == 'ShaderNodeOutputMaterial'
+                  and n.is_active_output)
+    shown = output.inputs["Surface"].links[0].from_node
+    assert shown.bl_idname == 'ShaderNodeEmission'
+    texture = shown.inputs["Color"].links[0].from_node
+    assert texture.image == scene.objects["room"].luxel.image
+    assert walls.node_tree.nodes.active == texture          # what Workbench shows
+    scene.luxel.show_baked = False
+    assert node_tree_snapshot() == before
+
+
+def test_cli_rejects_a_bad_argument_and_a_scene_without_light(capsys):
+    room_scene()
+    assert run_cli(["bake", "--shots", "many"]) != 0
+    assert "--shots" in capsys.readouterr().err
+    assert run_cli(["bake", "--threshold", "2"]) != 0
+    assert "--threshold" in capsys.readouterr().err
+    room_scene(light=False)
+    assert run_cli(["bake"]) != 0
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "no light" in error[0]
+
+
+def test_cli_bake_saves_the_blend_with_packed_lightmaps(tmp_path, capsys):
+    scene = room_scene()
+    path = tmp_path / "room.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    assert run_cli(["bake", "--density", "4", "--threshold", "0.05", "--save"]) == 0
+    out = capsys.readouterr().out
+    assert "luxel: done" in out and "saved" in out
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    room = bpy.context.scene.objects["room"]
+    assert room.luxel.image is not None and room.luxel.image.packed_file is not None
+    assert room.luxel.uv_map in room.data.uv_layers
+    assert bpy.context.scene.luxel.texel_density == 4.0
+    assert np.isfinite(lightmap_pixels(room)).all() and lightmap_pixels(room)[..., :3].max() > 0
+
+
+def test_cli_bake_writes_exr_files_next_to_the_blend(tmp_path):
+    room_scene()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "room.blend"))
+    assert run_cli(["bake", "--density", "4", "--threshold", "0.05", "--output",
+                    str(tmp_path / "maps")]) == 0
+    files = sorted(p.name for p in (tmp_path / "maps").iterdir())
+    assert files == ["Luxel_Scene_0.exr"]
+    from native import read_exr
+    pixels = read_exr(str(tmp_path / "maps" / files[0]))
+    np.testing.assert_allclose(pixels[..., :3],
+                               lightmap_pixels(bpy.context.scene.objects["room"])[..., :3],
+                               rtol=1e-3, atol=1e-6)
