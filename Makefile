@@ -1,12 +1,14 @@
 # Luxel: two commands on a fresh machine.
-#   make bake   installs the solver into .venv and bakes the Cornell box into out/cornell
-#   make test   installs the solver and pytest into .venv and runs the tests
+#   make bake   installs Luxel and Blender (the bpy module) into .venv, and bakes
+#               sample_blends/cornell_box.blend through the extension in background mode
+#   make test   installs the same plus pytest into .venv and runs the tests
 PYTHON ?= python3.11
 DEVICE ?= llvmpipe
 VENV := .venv
 BIN := $(VENV)/bin
+VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 
-.PHONY: bake test bench clean
+.PHONY: bake test bench extension extension-check samples clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -15,16 +17,21 @@ $(VENV)/.runtime: requirements.txt | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -r requirements.txt
 	touch $@
 
-$(VENV)/.dev: requirements-dev.txt $(VENV)/.runtime
+$(VENV)/.blender: requirements-blender.txt $(VENV)/.runtime
+	$(BIN)/python -m pip install --quiet -r requirements-blender.txt
+	touch $@
+
+$(VENV)/.dev: requirements-dev.txt $(VENV)/.blender
 	$(BIN)/python -m pip install --quiet -r requirements-dev.txt
 	touch $@
 
-$(VENV)/.bench: requirements-bench.txt $(VENV)/.runtime
+$(VENV)/.bench: requirements-bench.txt $(VENV)/.blender
 	$(BIN)/python -m pip install --quiet -r requirements-bench.txt
 	touch $@
 
-bake: $(VENV)/.runtime
-	$(BIN)/python -m native --output out/cornell
+bake: $(VENV)/.blender
+	$(BIN)/python tools/blender.py -b sample_blends/cornell_box.blend --command luxel bake \
+		--density 100 --threshold 0.01 --output out/cornell --preview out/cornell/preview.png
 
 test: $(VENV)/.dev
 	$(BIN)/python -m pytest -q tests
@@ -33,5 +40,17 @@ bench: $(VENV)/.bench
 	$(BIN)/python bench/bench_core.py --shoot-level 0 --json bench/results/core-$(DEVICE).json
 	$(BIN)/python bench/plot.py
 
+# The installable extension: dist/luxel-<version>.zip with the dependency wheels.
+extension: | $(BIN)/python
+	$(BIN)/python tools/build_extension.py
+
+# Installs the zip into a fresh Blender profile and bakes with it.
+extension-check: extension $(VENV)/.blender
+	$(BIN)/python tools/check_extension_install.py dist/luxel-$(VERSION).zip
+
+# Regenerates the scenes in sample_blends/.
+samples: $(VENV)/.blender
+	$(BIN)/python sample_blends/generate.py
+
 clean:
-	rm -rf $(VENV) out
+	rm -rf $(VENV) out dist
