@@ -1,0 +1,187 @@
+"""Validates an extension zip as `blender --command extension validate` does, installs it into a
+fresh Blender user profile through the bpy module, as the preferences' "Install from Disk" does,
+then checks that Luxel enables, that its dependencies load from the zip's wheels, that the solver
+gets an OpenGL context and that `bpy.ops.luxel.bake()` bakes a small lit room.
+
+    python tools/check_extension_install.py dist/luxel-<version>.zip
+
+The check runs in a child process with an empty user profile (BLENDER_USER_RESOURCES). The
+bundled packages (moderngl, glcontext, xatlas, OpenEXR) must be importable there only from the
+site-packages into which Blender extracts the zip's wheels. Two modes, chosen automatically:
+
+- Isolated, when this Python can import a bundled package, such as the development venv (`make
+  test` installs bpy and the solver's dependencies into .venv): the child runs as `python -S`,
+  without site-packages, with PYTHONPATH set to a temporary folder of symlinks to bpy and the
+  distributions it requires, recursively (by importlib.metadata, dist-info folders included).
+  Blender's startup (addon_utils._initialize_extensions_site_packages) puts the extension
+  site-packages on sys.path itself, `site` or not, so nothing is added by hand.
+- Plain, when this Python has bpy (and its requirements) but none of the bundled packages: the
+  child runs with this Python's own paths.
+
+In both modes the child first checks that no bundled package is importable before the install.
+Exits non-zero with the reason on failure.
+"""
+import argparse
+import importlib
+import importlib.metadata
+import importlib.util
+import os
+from pathlib import Path
+import re
+import subprocess
+import sys
+import tempfile
+
+REPO = "user_default"
+PACKAGE = f"bl_ext.{REPO}.luxel"
+BUNDLED = ("moderngl", "glcontext", "xatlas", "OpenEXR")
+
+
+def fail(reason):
+    sys.exit(f"extension check failed: {reason}")
+
+
+def validate_strictly(scripts, zip_path):
+    """Blender's own strict manifest check (`blender --command extension validate`), which
+    installing skips: it also limits lengths, such as 64 characters for the tagline."""
+    validator = scripts / "addons_core" / "bl_pkg" / "cli" / "blender_ext.py"
+    result = subprocess.run([sys.executable, str(validator), "validate", str(zip_path)],
+                            capture_output=True, text=True)
+    if result.returncode != 0:
+        fail("Blender's validator rejects the manifest:\n" + result.stdout + result.stderr)
+
+
+def build_room(bpy):
+    """An empty scene holding a closed 4 x 4 x 3 m box with inward faces, a 300 W point light
+    inside and a black world (a new world's node tree lights the scene grey)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    corners = [(x, y, z) for z in (0.0, 3.0) for x, y in ((-2, -2), (2, -2), (2, 2), (-2, 2))]
+    outward = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
+    mesh = bpy.data.meshes.new("Room")
+    mesh.from_pydata(corners, [], [face[::-1] for face in outward])
+    room = bpy.data.objects.new("Room", mesh)
+    scene.collection.objects.link(room)
+    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", 'POINT'))
+    lamp.data.energy = 300.0
+    lamp.location = (0.0, 0.0, 2.0)
+    scene.collection.objects.link(lamp)
+    scene.world = bpy.data.worlds.new("Black")
+    if scene.world.node_tree is None:  # Blender before 5.0 creates it on use_nodes
+        scene.world.use_nodes = True
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
+    return room
+
+
+def bake(bpy, room):
+    import numpy as np
+    settings = bpy.context.scene.luxel
+    settings.texel_density = 4.0
+    settings.threshold = 0.05
+    result = bpy.ops.luxel.bake()
+    if result != {'FINISHED'}:
+        fail(f"bpy.ops.luxel.bake() returned {result}")
+    image = room.luxel.image
+    if image is None:
+        fail("the bake finished but the room has no lightmap image")
+    pixels = np.empty(len(image.pixels), np.float32)
+    image.pixels.foreach_get(pixels)
+    if not np.isfinite(pixels).all() or pixels.max() <= 0.0:
+        fail(f"lightmap '{image.name}' is not finite and positive (max {pixels.max()})")
+    stats = settings.stats
+    print(f"bake: {stats.texels:,} texels, {stats.shots} shots, {stats.unshot:.2f} % unshot, "
+          f"{stats.seconds:.1f} s; '{image.name}' {image.size[0]}x{image.size[1]}, "
+          f"max {pixels.max():.3g}")
+
+
+def check_in_blender(zip_path):
+    """Runs in the child process, whose BLENDER_USER_RESOURCES is an empty folder."""
+    try:
+        import bpy
+    except ImportError as error:
+        fail(f"{sys.executable} has no bpy module ({error})")
+    # Before the install no bundled package may be found, or the checks below would prove nothing.
+    if found := [name for name in BUNDLED if importlib.util.find_spec(name) is not None]:
+        fail(f"{', '.join(found)} importable before the install: {sys.path}")
+    validate_strictly(Path(bpy.utils.system_resource("SCRIPTS")), zip_path)
+    room = build_room(bpy)
+    try:
+        bpy.ops.extensions.package_install_files(filepath=str(zip_path), repo=REPO,
+                                                 enable_on_install=True)
+    except RuntimeError as error:  # the operator's report of a failed install or register()
+        fail(f"install or enable: {error}")
+    if PACKAGE not in bpy.context.preferences.addons:
+        fail(f"{PACKAGE} installed but is not enabled")
+
+    # Blender extracts the wheels of this platform into one site-packages of the user profile.
+    site_packages = Path(bpy.utils.user_resource("EXTENSIONS", path=".local")).resolve()
+    for name in BUNDLED:
+        origin = Path(importlib.import_module(name).__file__).resolve()
+        if not origin.is_relative_to(site_packages):
+            fail(f"{name} loaded from {origin}, not from the wheels in {site_packages}")
+        print(f"{name}: {origin.relative_to(site_packages)}")
+
+    from bl_ext.user_default.luxel.native import create_context
+    context = create_context()
+    with context:  # which leaves Blender's context current; glGetString reads the current one
+        print(f"OpenGL {context.info['GL_VERSION']} on {context.info['GL_RENDERER']}")
+    context.release()
+    bake(bpy, room)
+
+
+def requirement_closure(name):
+    """Distributions that `name` requires, recursively, itself included; extras are skipped."""
+    found, pending = {}, [name]
+    while pending:
+        distribution = importlib.metadata.distribution(pending.pop())
+        key = re.sub(r"[-_.]+", "-", distribution.metadata["Name"]).lower()
+        if key in found:
+            continue
+        found[key] = distribution
+        for requirement in distribution.requires or []:
+            if "extra" not in requirement.partition(";")[2]:
+                pending.append(re.match(r"[A-Za-z0-9._-]+", requirement)[0])
+    return found.values()
+
+
+def link_bpy(folder):
+    """Symlinks in folder to the top-level entries (packages, modules, dist-info folders) of bpy
+    and the distributions it requires, so that folder on PYTHONPATH gives bpy and nothing else."""
+    for distribution in requirement_closure("bpy"):
+        for top in {Path(path).parts[0] for path in distribution.files or []} - {".."}:
+            source = Path(distribution.locate_file(top))
+            if source.exists() and not (folder / top).exists():
+                (folder / top).symlink_to(source, target_is_directory=source.is_dir())
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("zip", type=Path, help="the extension zip to install")
+    parser.add_argument("--in-blender", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.in_blender:
+        check_in_blender(args.zip)
+        return
+    if not args.zip.is_file():
+        fail(f"no zip at {args.zip}")
+    command = [sys.executable, __file__, "--in-blender", str(args.zip.resolve())]
+    # A child process, since Blender reads BLENDER_USER_RESOURCES once, when bpy is imported.
+    with (tempfile.TemporaryDirectory(prefix="luxel-blender-user-") as resources,
+          tempfile.TemporaryDirectory(prefix="luxel-bpy-only-") as bpy_only):
+        env = dict(os.environ, BLENDER_USER_RESOURCES=resources)
+        if any(importlib.util.find_spec(name) for name in BUNDLED):
+            try:
+                link_bpy(Path(bpy_only))
+            except importlib.metadata.PackageNotFoundError as error:
+                fail(f"{sys.executable} has a bundled package but no bpy to isolate ({error})")
+            command.insert(1, "-S")
+            env["PYTHONPATH"] = bpy_only
+            print(f"isolated: python -S with only bpy and its requirements ({bpy_only})")
+        result = subprocess.run(command, env=env)
+    if result.returncode != 0:
+        sys.exit(result.returncode)
+    print(f"{args.zip}: installs, enables, finds its dependencies in the wheels and bakes")
+
+
+if __name__ == "__main__":
+    main()
