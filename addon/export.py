@@ -260,6 +260,7 @@ class _Exporter:
             colour = node.inputs["Base Color" if "Base Color" in node.inputs else "Color"]
             info.albedo = self._colour_input(colour, material, info)
             if node.bl_idname == 'ShaderNodeBsdfPrincipled':
+                info.albedo = tuple(np.array(info.albedo) * _principled_diffuse_share(node))
                 emission += self._emission(node.inputs["Emission Color"],
                                            node.inputs["Emission Strength"], material)
         for node in emitters:
@@ -435,6 +436,20 @@ def _shader_nodes(node, depth=0):
     if node.bl_idname == 'NodeReroute' and node.inputs[0].is_linked and depth < 16:
         return _shader_nodes(node.inputs[0].links[0].from_node, depth + 1)
     return [node]
+
+
+def _principled_diffuse_share(node):
+    """The part of the Principled BSDF's light that reaches its diffuse base: metals and
+    transmission have none, and the dielectric specular layer on top reflects F0 at normal
+    incidence (first order: the layer reflects more at grazing angles), F0 from the IOR scaled
+    by twice the Specular IOR Level as in Blender."""
+    def value(name, default):
+        socket = node.inputs.get(name)
+        return float(socket.default_value) if socket is not None else default
+    ior = value("IOR", 1.5)
+    f0 = ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0 * value("Specular IOR Level", 0.5)
+    share = (1.0 - value("Metallic", 0.0)) * (1.0 - value("Transmission Weight", 0.0))
+    return share * (1.0 - min(max(f0, 0.0), 1.0))
 
 
 def _clamp_albedo(colour, material, exporter):

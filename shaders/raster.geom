@@ -1,9 +1,10 @@
 #version 410
-// Conservative rasterization in lightmap space (after Hasselgren et al., GPU Gems 2):
-// every edge is pushed out by half a texel diagonal so that each texel the triangle touches
-// gets a fragment; the fragment shader clips the texel square against the exact triangle.
+// Conservative rasterization in lightmap space: the triangle's bounding box, grown to whole
+// texels, is drawn, so every texel the triangle touches gets a fragment however thin or sharp
+// the triangle (pushing edges out, as in GPU Gems 2, fails at sharp corners); the fragment
+// shader clips the texel square against the exact triangle and discards texels it misses.
 layout(triangles) in;
-layout(triangle_strip, max_vertices = 3) out;
+layout(triangle_strip, max_vertices = 4) out;
 
 uniform vec2 u_atlas_size;   // page size in texels
 
@@ -57,19 +58,14 @@ void main() {
     g_area_per_texel = world_area2 / abs(uv_area2);
     g_texel_size = sqrt(g_area_per_texel);
 
-    float orientation = sign(uv_area2);
-    vec2 t[3] = vec2[3](t0, t1, t2);
-    const float half_diagonal = 0.70711;
-    for (int i = 0; i < 3; ++i) {
-        vec2 prev = t[(i + 2) % 3], cur = t[i], next = t[(i + 1) % 3];
-        vec2 a = normalize(cur - prev), b = normalize(next - cur);
-        vec2 na = orientation * vec2(a.y, -a.x);
-        vec2 nb = orientation * vec2(b.y, -b.x);
-        vec2 expanded = cur + half_diagonal * (na + nb) / max(1.0 + dot(na, nb), 0.05);
-        g_albedo = v[0].albedo;
-        g_emission = v[0].emission;
-        g_receive = v[0].receive;
-        gl_Position = vec4(expanded / u_atlas_size * 2.0 - 1.0, 0.0, 1.0);
+    vec2 lo = floor(min(min(t0, t1), t2));
+    vec2 hi = floor(max(max(t0, t1), t2)) + 1.0;
+    g_albedo = v[0].albedo;
+    g_emission = v[0].emission;
+    g_receive = v[0].receive;
+    vec2 corners[4] = vec2[4](lo, vec2(hi.x, lo.y), vec2(lo.x, hi.y), hi);
+    for (int i = 0; i < 4; ++i) {
+        gl_Position = vec4(corners[i] / u_atlas_size * 2.0 - 1.0, 0.0, 1.0);
         EmitVertex();
     }
     EndPrimitive();

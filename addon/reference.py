@@ -1,0 +1,301 @@
+"""A Cycles reference for Luxel's lightmaps: after a Luxel bake, each receiving object is baked
+again with Cycles (CPU, type DIFFUSE, pass filter DIRECT + INDIRECT + COLOR: the reflected
+diffuse radiance, the quantity a Luxel texel holds) into the same lightmap UV layout, so the two
+can be compared texel by texel or as per-object means.
+
+The user's file is left as it was: Cycles bakes into temporary copies of the objects'
+materials (the user's node trees are never edited), and the render and bake settings, the
+selection, the active object and the material slots come back, whatever happens."""
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+
+from .writeback import UV_MAP
+
+PASS_FILTER = {'DIRECT', 'INDIRECT', 'COLOR'}
+TEMP_PREFIX = "Luxel Reference "
+DEFAULT_ALBEDO = 0.8     # Cycles' surface for a mesh without a material: a 0.8 grey diffuse
+LUXEL_NODE_PREFIX = "Luxel "   # display.py's nodes (Show Baked Lighting); never baked
+LUXEL_DISPLAY_KEY = "luxel_display"
+
+
+def receivers(scene, objects=None):
+    """The meshes a Luxel bake gave a lightmap, optionally restricted to ``objects`` (objects
+    or names)."""
+    if objects is None:
+        candidates = list(scene.objects)
+    else:
+        candidates = [scene.objects[o] if isinstance(o, str) else o for o in objects]
+    return [obj for obj in candidates
+            if obj.type == 'MESH' and obj.luxel.uv_map and obj.luxel.image is not None]
+
+
+def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0):
+    """Bake each receiving object with Cycles into a temporary float image the size of its
+    lightmap. Returns {object name: (H, W, 4) float32 array}, row 0 at the bottom (v = 0), like
+    Luxel's pages; alpha is 1 where Cycles wrote a texel (a texel centre inside one of the
+    object's UV triangles) and 0 elsewhere, so alpha is the object's coverage mask."""
+    scene = context.scene
+    targets = receivers(scene, objects)
+    if context.mode != 'OBJECT':
+        raise RuntimeError("the Cycles reference bake needs Object Mode")
+    restore = _SettingsSnapshot(scene)
+    view_layer = context.view_layer
+    selected = [obj for obj in view_layer.objects if obj.select_get()]
+    active = view_layer.objects.active
+    temporary_materials, temporary_images, slot_changes, added_slots = [], [], [], []
+    preview_changes = []
+    results = {}
+    try:
+        _configure_cycles(scene, samples, bounces, seed)
+        _hide_luxel_preview(temporary_materials, preview_changes)
+        for obj in targets:
+            width, height = obj.luxel.image.size
+            image = bpy.data.images.new(TEMP_PREFIX + obj.name, width, height, alpha=True,
+                                        float_buffer=True)
+            temporary_images.append(image)
+            image.colorspace_settings.name = 'Linear Rec.709'
+            _point_materials_at(obj, image, temporary_materials, slot_changes, added_slots)
+            for other in view_layer.objects:
+                if other.select_get() != (other == obj):
+                    other.select_set(other == obj)
+            view_layer.objects.active = obj
+            bpy.ops.object.bake(type='DIFFUSE', pass_filter=PASS_FILTER,
+                                uv_layer=obj.luxel.uv_map or UV_MAP, margin=0, use_clear=True,
+                                target='IMAGE_TEXTURES', use_selected_to_active=False,
+                                use_cage=False)
+            pixels = np.empty(width * height * 4, dtype=np.float32)
+            image.pixels.foreach_get(pixels)
+            results[obj.name] = pixels.reshape(height, width, 4)
+            _restore_slots(slot_changes, added_slots)
+    finally:
+        _restore_slots(slot_changes, added_slots)
+        _restore_slots(preview_changes, [])
+        for material in temporary_materials:
+            bpy.data.materials.remove(material)
+        for image in temporary_images:
+            bpy.data.images.remove(image)
+        for obj in view_layer.objects:
+            want = obj in selected
+            if obj.select_get() != want:
+                obj.select_set(want)
+        view_layer.objects.active = active
+        restore()
+    return results
+
+
+# ------------------------------------------------------------------------- per-object means
+@dataclass
+class ObjectMean:
+    """Mean RGB reflected radiance of one object over the texels Cycles covered."""
+    name: str
+    texels: int
+    luxel: np.ndarray       # (3,)
+    cycles: np.ndarray      # (3,)
+    cycles_error: np.ndarray  # (3,) standard error of Cycles' mean estimated from its texel
+    #                           noise (rough: see _standard_error)
+
+    @property
+    def ratio(self):
+        return np.divide(self.luxel, self.cycles, out=np.full(3, np.nan),
+                         where=self.cycles > 0)
+
+
+def luxel_lightmap(obj):
+    """The object's Luxel page as an (H, W, 4) float32 array, row 0 at the bottom."""
+    image = obj.luxel.image
+    width, height = image.size
+    pixels = np.empty(width * height * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    return pixels.reshape(height, width, 4)
+
+
+def object_means(reference, luxel_pages=None):
+    """{name: ObjectMean} for the Cycles bakes in ``reference`` (cycles_reference's result) and
+    Luxel's lightmaps (``luxel_pages`` {name: (H, W, 4)}; by default each object's own lightmap
+    image), both averaged over the same texels: those Cycles covered (alpha > 0)."""
+    means = {}
+    for name, cycles in reference.items():
+        luxel = (luxel_pages[name] if luxel_pages is not None
+                 else luxel_lightmap(bpy.data.objects[name]))
+        if luxel.shape != cycles.shape:
+            raise ValueError(f"'{name}': Luxel's lightmap is {luxel.shape[:2]}, the Cycles bake "
+                             f"{cycles.shape[:2]}")
+        covered = cycles[..., 3] > 0.0
+        count = int(covered.sum())
+        if count == 0:
+            nan = np.full(3, np.nan)
+            means[name] = ObjectMean(name, 0, nan, nan, nan)
+            continue
+        means[name] = ObjectMean(name, count,
+                                 luxel[covered][:, :3].astype(np.float64).mean(axis=0),
+                                 cycles[covered][:, :3].astype(np.float64).mean(axis=0),
+                                 _standard_error(cycles, covered))
+    return means
+
+
+def _standard_error(pixels, covered):
+    """Standard error of the mean over ``covered``, from second differences a - 2b + c of
+    three covered texels in a row or column: independent noise of variance v gives them
+    variance 6 v, and smooth (linear) lighting cancels; shadow edges still add to it. A rough
+    guide (within a factor of a few), for diagnostics, not a bound."""
+    squares, triples = np.zeros(3), 0
+    rgb = pixels[..., :3].astype(np.float64)
+    for axis in (0, 1):
+        length = pixels.shape[axis]
+        if length < 3:
+            continue
+        a, b, c = (np.take(rgb, range(k, length - 2 + k), axis=axis) for k in range(3))
+        both = (np.take(covered, range(0, length - 2), axis=axis)
+                & np.take(covered, range(1, length - 1), axis=axis)
+                & np.take(covered, range(2, length), axis=axis))
+        squares += ((a - 2.0 * b + c)[both] ** 2).sum(axis=0)
+        triples += int(both.sum())
+    if triples == 0:
+        return np.full(3, np.nan)
+    return np.sqrt(squares / triples / 6.0 / int(covered.sum()))
+
+
+# ------------------------------------------------------------------------------- internals
+def _configure_cycles(scene, samples, bounces, seed):
+    scene.render.engine = 'CYCLES'
+    cycles = scene.cycles
+    cycles.device = 'CPU'
+    cycles.samples = samples
+    cycles.use_adaptive_sampling = False
+    cycles.use_denoising = False
+    cycles.sample_clamp_direct = 0.0
+    cycles.sample_clamp_indirect = 0.0
+    cycles.max_bounces = bounces
+    cycles.diffuse_bounces = bounces
+    cycles.seed = seed
+    cycles.use_animated_seed = False
+    cycles.time_limit = 0.0
+    cycles.sample_offset = 0
+    cycles.bake_type = 'DIFFUSE'
+    bake = scene.render.bake
+    bake.use_pass_direct = bake.use_pass_indirect = bake.use_pass_color = True
+    bake.margin = 0
+    bake.use_clear = True
+    bake.target = 'IMAGE_TEXTURES'
+    bake.use_selected_to_active = False
+
+
+def _point_materials_at(obj, image, temporary_materials, slot_changes, added_slots):
+    """Give every slot of ``obj`` a temporary copy of its material whose active node is an
+    image texture of ``image`` (Cycles bakes into the active image node of each material)."""
+    copies = {}
+    if len(obj.material_slots) == 0:
+        obj.data.materials.append(None)
+        added_slots.append(obj)
+    for index, slot in enumerate(obj.material_slots):
+        original = slot.material
+        if original not in copies:
+            copies[original] = _baking_material(original, image)
+            temporary_materials.append(copies[original])
+        slot_changes.append((obj, index, original))
+        slot.material = copies[original]
+
+
+def _baking_material(original, image):
+    if original is None:
+        material = bpy.data.materials.new(TEMP_PREFIX + "Default")
+        nodes, links = material.node_tree.nodes, material.node_tree.links
+        nodes.clear()
+        diffuse = nodes.new('ShaderNodeBsdfDiffuse')
+        diffuse.inputs["Color"].default_value = (DEFAULT_ALBEDO,) * 3 + (1.0,)
+        output = nodes.new('ShaderNodeOutputMaterial')
+        links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+    else:
+        material = original.copy()
+        material.name = TEMP_PREFIX + original.name
+    tree = material.node_tree
+    target = tree.nodes.new('ShaderNodeTexImage')
+    target.name = target.label = TEMP_PREFIX + "Target"
+    target.image = image
+    tree.nodes.active = target
+    return material
+
+
+def _hide_luxel_preview(temporary_materials, slot_changes):
+    """With Show Baked Lighting on, the baked objects' materials show their lightmaps as
+    emission: every object gets a copy of its material without Luxel's nodes while Cycles
+    bakes, so that Cycles sees the user's shading everywhere."""
+    clean = {}
+    for obj in bpy.data.objects:
+        if obj.library is not None:
+            continue
+        for index, slot in enumerate(obj.material_slots):
+            material = slot.material
+            if material is None or LUXEL_DISPLAY_KEY not in material:
+                continue
+            if material not in clean:
+                clean[material] = _without_preview(material)
+                temporary_materials.append(clean[material])
+            slot_changes.append((obj, index, material))
+            slot.material = clean[material]
+
+
+def _without_preview(original):
+    material = original.copy()
+    material.name = TEMP_PREFIX + original.name
+    state = material[LUXEL_DISPLAY_KEY]
+    tree = material.node_tree
+    for node in [n for n in tree.nodes if n.name.startswith(LUXEL_NODE_PREFIX)]:
+        tree.nodes.remove(node)
+    output = tree.nodes.get(state.get("output", ""))
+    if output is not None:
+        output.is_active_output = True
+    del material[LUXEL_DISPLAY_KEY]
+    return material
+
+
+def _restore_slots(slot_changes, added_slots):
+    while slot_changes:
+        obj, index, original = slot_changes.pop()
+        obj.material_slots[index].material = original
+    while added_slots:
+        obj = added_slots.pop()
+        obj.data.materials.clear()      # it had none (pop() leaves the object a slot)
+
+
+class _SettingsSnapshot:
+    """The render engine and every plain setting of Cycles and of the bake panel, put back by
+    calling the snapshot (only what changed is written back)."""
+
+    def __init__(self, scene):
+        self.scene = scene
+        self.engine = scene.render.engine
+        self.groups = [(group, _plain_properties(group))
+                       for group in (scene.cycles, scene.render.bake)]
+
+    def __call__(self):
+        for group, values in self.groups:
+            for name, value in values.items():
+                if _value(group, name) != value:
+                    try:
+                        setattr(group, name, value)
+                    except (AttributeError, TypeError, ValueError):
+                        pass
+        if self.scene.render.engine != self.engine:
+            self.scene.render.engine = self.engine
+
+
+def _plain_properties(group):
+    values = {}
+    for prop in group.bl_rna.properties:
+        if prop.identifier == "rna_type" or prop.is_readonly or prop.type in {'POINTER',
+                                                                             'COLLECTION'}:
+            continue
+        values[prop.identifier] = _value(group, prop.identifier)
+    return values
+
+
+def _value(group, name):
+    value = getattr(group, name)
+    if isinstance(value, (set, frozenset)):     # enum flags
+        return set(value)
+    if hasattr(value, "__len__") and not isinstance(value, str):
+        return tuple(value)
+    return value
