@@ -3,26 +3,36 @@
 On: each material of a baked object gets a few nodes of Luxel's (its lightmap through the
 lightmap UV map, shown as emission, plus the material's own emission) feeding a Material Output
 of Luxel's that becomes the active one, and the lightmap node becomes the active node, which
-Workbench's Texture colour shows. Off: Luxel's nodes go, and the user's active output and
-active node come back. Nothing of the user's nodes is edited, so the trees return exactly."""
+Workbench's Texture colour shows through the active UV map, so the lightmap UV map becomes the
+active one of each baked mesh. Off: Luxel's nodes go, and the user's active output, active node
+and active UV map come back. Nothing of the user's nodes is edited, so the trees return
+exactly."""
 import bpy
 
 from .writeback import UV_MAP
 
 NODE_PREFIX = "Luxel "
 STATE_KEY = "luxel_display"      # the user's active output and active node while shown
+UV_STATE_KEY = "active_uv_maps"  # on scene.luxel: each baked mesh's own active UV map
 
 
 def set_baked_lighting(scene, show):
-    hide_baked_lighting()
+    hide_baked_lighting(scene)
     if show:
         _show(scene)
 
 
-def hide_baked_lighting():
+def hide_baked_lighting(scene):
     for material in bpy.data.materials:
         if STATE_KEY in material:
             _restore(material)
+    settings = scene.luxel
+    for mesh_name, uv_name in settings.get(UV_STATE_KEY, {}).items():
+        mesh = bpy.data.meshes.get(mesh_name)
+        if mesh is not None and uv_name in mesh.uv_layers:
+            mesh.uv_layers.active = mesh.uv_layers[uv_name]
+    if UV_STATE_KEY in settings:
+        del settings[UV_STATE_KEY]
 
 
 def refresh(scene):
@@ -37,6 +47,15 @@ def _show(scene):
         if material.node_tree is None:
             continue
         _add_nodes(material, image, emission.get(material.name))
+    active_uv_maps = {}
+    for obj in scene.objects:
+        layers = obj.data.uv_layers if obj.type == 'MESH' else None
+        if layers is None or obj.luxel.image is None or obj.luxel.uv_map not in layers:
+            continue
+        if layers.active is not None:
+            active_uv_maps[obj.data.name] = layers.active.name
+        layers.active = layers[obj.luxel.uv_map]
+    scene.luxel[UV_STATE_KEY] = active_uv_maps
 
 
 def _baked_materials(scene):

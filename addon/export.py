@@ -9,6 +9,7 @@ import bpy
 import numpy as np
 
 from ..native import PointLight, Scene, SceneError, SpotLight, SunLight
+from . import display
 
 MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (native checks < 1)
 DISK_SEGMENTS = 32
@@ -242,6 +243,9 @@ class _Exporter:
             return info
         tree = material.node_tree
         output = _active_output(tree, 'ShaderNodeOutputMaterial') if tree else None
+        if output is not None and output.name.startswith(display.NODE_PREFIX):
+            # "Show baked lighting" is on: read the user's own output, not Luxel's.
+            output = tree.nodes.get(material.original[display.STATE_KEY]["output"])
         if output is None or not output.inputs["Surface"].is_linked:
             info.albedo = _clamp_albedo(tuple(material.diffuse_color[:3]), material, self)
             return info

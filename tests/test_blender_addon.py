@@ -372,3 +372,78 @@ def test_cli_bake_writes_exr_files_next_to_the_blend(tmp_path):
     np.testing.assert_allclose(pixels[..., :3],
                                lightmap_pixels(bpy.context.scene.objects["room"])[..., :3],
                                rtol=1e-3, atol=1e-6)
+
+
+def test_workbench_shows_the_lightmap_through_its_own_uv_map(tmp_path):
+    """The user's UV map (all corners at 0, 0) stays theirs; the preview shows the lightmap."""
+    scene = blender_session.empty_file()
+    plane = mesh_object(scene, "plane", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)],
+                        [(0, 1, 2, 3)], material("plane", (0.5, 0.5, 0.5)))
+    plane.data.uv_layers.new(name="UVMap")
+    spot = bpy.data.objects.new("spot", bpy.data.lights.new("spot", 'SPOT'))
+    spot.data.energy, spot.data.spot_size = 300.0, math.radians(60)
+    spot.location = (0, 0, 2)
+    scene.collection.objects.link(spot)
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    camera.location = (0, 0, 6)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.resolution_x = scene.render.resolution_y = 64
+    scene.luxel.texel_density = 8
+    bpy.ops.luxel.bake()
+    assert plane.data.uv_layers.active.name == "UVMap"
+
+    path = tmp_path / "preview.png"
+    blender_session.addon().addon.cli.render_preview(scene, str(path))
+    image = bpy.data.images.load(str(path))
+    pixels = np.array(image.pixels[:]).reshape(64, 64, 4)
+    assert pixels[32, 32, :3].min() > 0.3            # lit under the spot
+    assert pixels[2, 2, :3].max() < pixels[32, 32, :3].min() / 4   # outside its cone
+    assert plane.data.uv_layers.active.name == "UVMap" and not scene.luxel.show_baked
+
+
+def test_rebake_while_baked_lighting_is_shown_reads_the_users_materials():
+    scene = room_scene()
+    bpy.ops.luxel.bake()
+    first = lightmap_pixels(scene.objects["room"]).copy()
+    before = node_tree_snapshot()
+    scene.luxel.show_baked = True
+    bpy.ops.luxel.bake()
+    np.testing.assert_allclose(lightmap_pixels(scene.objects["room"]), first, rtol=1e-5,
+                               atol=1e-7)
+    scene.luxel.show_baked = False
+    assert node_tree_snapshot() == before
+
+
+def test_image_texture_albedo_is_sampled_through_the_materials_uv_map():
+    """An 8 x 1 sRGB image (dark left half, light right half) as base colour, under a sun
+    straight down of strength S: each half reflects rho S / pi, rho the linearised pixel."""
+    scene = blender_session.empty_file()
+    image = bpy.data.images.new("albedo", 8, 1)
+    image.pixels.foreach_set([0.5, 0.25, 0.125, 1.0] * 4 + [0.75, 0.75, 0.75, 1.0] * 4)
+    mat = material("textured", (0.5, 0.5, 0.5))
+    texture = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    mat.node_tree.links.new(texture.outputs["Color"],
+                            mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    mat.node_tree.nodes["Principled BSDF"].inputs["Specular IOR Level"].default_value = 0.0
+    floor = mesh_object(scene, "floor", [(-2, -1, 0), (0, -1, 0), (0, 1, 0), (-2, 1, 0),
+                                         (2, -1, 0), (2, 1, 0)],
+                        [(0, 1, 2, 3), (1, 4, 5, 2)], mat)
+    layer = floor.data.uv_layers.new(name="UVMap")
+    corners_u = {0: 0.0, 1: 0.5, 2: 0.5, 3: 0.0, 4: 1.0, 5: 1.0}
+    for loop in floor.data.loops:
+        layer.data[loop.index].uv = (corners_u[loop.vertex_index], 0.5)
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", 'SUN'))
+    sun.data.energy = 3.0
+    scene.collection.objects.link(sun)
+    scene.luxel.texel_density = 8
+    bpy.ops.luxel.bake()
+
+    def linear(value):
+        return value / 12.92 if value <= 0.04045 else ((value + 0.055) / 1.055) ** 2.4
+
+    left, right = texels_of(floor)
+    np.testing.assert_allclose(left, [linear(v) * 3.0 / math.pi for v in (0.5, 0.25, 0.125)],
+                               rtol=0.02)
+    np.testing.assert_allclose(right, [linear(0.75) * 3.0 / math.pi] * 3, rtol=0.02)
