@@ -11,13 +11,12 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from .display import NODE_PREFIX, STATE_KEY
+from .export import DEFAULT_ALBEDO
 from .writeback import UV_MAP
 
 PASS_FILTER = {'DIRECT', 'INDIRECT', 'COLOR'}
 TEMP_PREFIX = "Luxel Reference "
-DEFAULT_ALBEDO = 0.8     # Cycles' surface for a mesh without a material: a 0.8 grey diffuse
-LUXEL_NODE_PREFIX = "Luxel "   # display.py's nodes (Show Baked Lighting); never baked
-LUXEL_DISPLAY_KEY = "luxel_display"
 
 
 def receivers(scene, objects=None):
@@ -204,7 +203,7 @@ def _baking_material(original, image):
         nodes, links = material.node_tree.nodes, material.node_tree.links
         nodes.clear()
         diffuse = nodes.new('ShaderNodeBsdfDiffuse')
-        diffuse.inputs["Color"].default_value = (DEFAULT_ALBEDO,) * 3 + (1.0,)
+        diffuse.inputs["Color"].default_value = (*DEFAULT_ALBEDO, 1.0)
         output = nodes.new('ShaderNodeOutputMaterial')
         links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
     else:
@@ -228,7 +227,7 @@ def _hide_luxel_preview(temporary_materials, slot_changes):
             continue
         for index, slot in enumerate(obj.material_slots):
             material = slot.material
-            if material is None or LUXEL_DISPLAY_KEY not in material:
+            if material is None or STATE_KEY not in material:
                 continue
             if material not in clean:
                 clean[material] = _without_preview(material)
@@ -240,14 +239,14 @@ def _hide_luxel_preview(temporary_materials, slot_changes):
 def _without_preview(original):
     material = original.copy()
     material.name = TEMP_PREFIX + original.name
-    state = material[LUXEL_DISPLAY_KEY]
+    state = material[STATE_KEY]
     tree = material.node_tree
-    for node in [n for n in tree.nodes if n.name.startswith(LUXEL_NODE_PREFIX)]:
+    for node in [n for n in tree.nodes if n.name.startswith(NODE_PREFIX)]:
         tree.nodes.remove(node)
     output = tree.nodes.get(state.get("output", ""))
     if output is not None:
         output.is_active_output = True
-    del material[LUXEL_DISPLAY_KEY]
+    del material[STATE_KEY]
     return material
 
 
