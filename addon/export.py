@@ -78,13 +78,25 @@ class _Collector:
         return first
 
 
+RENDERABLE = {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT', 'LIGHT'}
+
+
 def export_scene(context, depsgraph=None):
-    """Export what renders: objects hidden from render are skipped, instances expanded."""
+    """Export what renders: objects hidden from render (themselves or through a collection)
+    are skipped, instances expanded."""
     scene = context.scene
     depsgraph = depsgraph or context.evaluated_depsgraph_get()
     exporter = _Exporter(scene)
+    exported = set()
     for instance in depsgraph.object_instances:
         exporter.add_instance(instance)
+        exported.add(instance.object.original.name)
+    # The viewport's depsgraph leaves out objects hidden in the viewport, though they render.
+    for obj in scene.objects:
+        if (obj.type in RENDERABLE and obj.name not in exported and not obj.hide_render
+                and obj.name not in exporter.hidden_by_collection):
+            exporter.warn(f"'{obj.name}' renders but is hidden in the viewport, so it was not "
+                          "baked: unhide it (eye or screen icon in the outliner) to include it")
     return exporter.finish()
 
 
@@ -100,6 +112,9 @@ class _Exporter:
         self.texture_of_image = {}
         self.emission_of_material = {}
         self.data_users = Counter(o.data for o in bpy.data.objects if o.type == 'MESH')
+        self.hidden_by_collection = {obj.name for collection in bpy.data.collections
+                                     if collection.hide_render
+                                     for obj in collection.all_objects}
 
     def warn(self, message):
         if message not in self.warnings:
@@ -109,7 +124,10 @@ class _Exporter:
     def add_instance(self, instance):
         obj = instance.object
         original = obj.original
-        if original.hide_render or (instance.is_instance and instance.parent.original.hide_render):
+        if original.hide_render or original.name in self.hidden_by_collection:
+            return
+        if instance.is_instance and (instance.parent.original.hide_render or
+                                     instance.parent.original.name in self.hidden_by_collection):
             return
         matrix = np.array(instance.matrix_world, dtype=np.float64)
         if obj.type == 'LIGHT':

@@ -17,9 +17,13 @@ class LUXEL_OT_bake(bpy.types.Operator):
 
     _job = None
     _timer = None
+    _modal_running = False      # one interactive bake at a time
 
     @classmethod
     def poll(cls, context):
+        if cls._modal_running:
+            cls.poll_message_set("A Luxel bake is running (Esc cancels it)")
+            return False
         return context.scene is not None and context.mode == 'OBJECT'
 
     def execute(self, context):
@@ -45,6 +49,7 @@ class LUXEL_OT_bake(bpy.types.Operator):
         self._timer = wm.event_timer_add(TIMER_SECONDS, window=context.window)
         wm.progress_begin(0, 1000)
         wm.modal_handler_add(self)
+        type(self)._modal_running = True
         return {'RUNNING_MODAL'}
 
     def modal(self, context, event):
@@ -91,6 +96,7 @@ class LUXEL_OT_bake(bpy.types.Operator):
         return {'FINISHED'}
 
     def _end_modal(self, context):
+        type(self)._modal_running = False
         wm = context.window_manager
         wm.event_timer_remove(self._timer)
         wm.progress_end()

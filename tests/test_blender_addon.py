@@ -214,6 +214,12 @@ def test_hidden_instanced_and_modified_objects_export_as_they_render():
     export = blender_session.addon().addon.export
     hidden = cube(scene, "hidden", 0.5, (1, 1, 1), material("grey", (0.5, 0.5, 0.5)))
     hidden.hide_render = True
+    off_render = bpy.data.collections.new("off render")
+    scene.collection.children.link(off_render)
+    off_render.objects.link(cube(bpy.context.scene, "in hidden collection", 0.3, (1, 0, 1)))
+    scene.collection.objects.unlink(bpy.data.objects["in hidden collection"])
+    off_render.hide_render = True
+    cube(scene, "hidden in viewport", 0.3, (-1, 0, 1)).hide_set(True)
     arrayed = cube(scene, "arrayed", 0.2, (-1, 1, 0.1), material("grey2", (0.5, 0.5, 0.5)))
     modifier = arrayed.modifiers.new("array", 'ARRAY')
     modifier.count = 3
@@ -229,7 +235,10 @@ def test_hidden_instanced_and_modified_objects_export_as_they_render():
 
     result = export.export_scene(bpy.context)
     names = result.scene.object_names
-    assert "hidden" not in names
+    assert "hidden" not in names and "in hidden collection" not in names
+    assert any("'hidden in viewport' renders but is hidden in the viewport" in warning
+               for warning in result.warnings)
+    assert not any("in hidden collection" in warning for warning in result.warnings)
     arrayed_index = names.index("arrayed")
     assert (result.scene.object_index == arrayed_index).sum() == 3 * 12
     instance_index = names.index("instancer/prop")
