@@ -7,6 +7,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tools"))
 import blender as runner  # noqa: E402  (tools/blender.py, found through the path above)
 
 MODULE = runner.MODULE
+ROOT = runner.ROOT
 _bpy = None
 
 

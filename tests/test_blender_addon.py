@@ -456,3 +456,21 @@ def test_image_texture_albedo_is_sampled_through_the_materials_uv_map():
     np.testing.assert_allclose(left, [linear(v) * 3.0 / math.pi for v in (0.5, 0.25, 0.125)],
                                rtol=0.02)
     np.testing.assert_allclose(right, [linear(0.75) * 3.0 / math.pi] * 3, rtol=0.02)
+
+
+def test_cornell_box_sample_bakes_every_receiving_face_and_keeps_the_meshes():
+    bpy.ops.wm.open_mainfile(filepath=str(blender_session.ROOT / "sample_blends" /
+                                          "cornell_box.blend"))
+    scene = bpy.context.scene
+    scene.luxel.texel_density = 40.0
+    scene.luxel.threshold = 0.02
+    before = mesh_snapshot(scene)
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    assert mesh_snapshot(scene) == before
+    receivers = [obj for obj in scene.objects if obj.type == 'MESH']
+    assert len(receivers) == 8
+    for obj in receivers:
+        assert obj.luxel.uv_map == "LuxelLightmap" and "LuxelLightmap" in obj.data.uv_layers
+        values = texels_of(obj)
+        assert np.isfinite(values).all()
+        assert (values.max(axis=1) > 0).all(), f"{obj.name} has a face left black"
