@@ -12,14 +12,12 @@ from .writeback import write_back
 class BakeJob:
     def __init__(self, context):
         self.scene = context.scene
-        started = time.perf_counter()
+        self.started = time.perf_counter()
         self.export = export_scene(context)
         if not self.export.receivers:
             raise SceneError("no object gets a lightmap: enable 'Receive Lightmap' on a "
                              "visible mesh (Object properties > Luxel)")
         self.solver = Solver(self.export.scene, self.scene.luxel.solver_settings())
-        self.export_seconds = time.perf_counter() - started
-        self.started = started
 
     @property
     def warnings(self):

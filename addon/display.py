@@ -25,7 +25,7 @@ def set_baked_lighting(scene, show):
 def hide_baked_lighting(scene):
     for material in bpy.data.materials:
         if STATE_KEY in material:
-            _restore(material)
+            strip_display_nodes(material)
     settings = scene.luxel
     for mesh_name, uv_name in settings.get(UV_STATE_KEY, {}).items():
         mesh = bpy.data.meshes.get(mesh_name)
@@ -108,7 +108,9 @@ def _add_nodes(material, image, own_emission):
     nodes.active = texture
 
 
-def _restore(material):
+def strip_display_nodes(material):
+    """Remove Luxel's nodes from ``material`` and give back the user's active output and active
+    node (also used on the Cycles reference's copies of shown materials)."""
     state = material[STATE_KEY]
     tree = material.node_tree
     if tree is not None:

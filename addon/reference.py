@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from .display import NODE_PREFIX, STATE_KEY
+from .display import STATE_KEY, strip_display_nodes
 from .export import DEFAULT_ALBEDO
 from .writeback import UV_MAP
 
@@ -239,14 +239,7 @@ def _hide_luxel_preview(temporary_materials, slot_changes):
 def _without_preview(original):
     material = original.copy()
     material.name = TEMP_PREFIX + original.name
-    state = material[STATE_KEY]
-    tree = material.node_tree
-    for node in [n for n in tree.nodes if n.name.startswith(NODE_PREFIX)]:
-        tree.nodes.remove(node)
-    output = tree.nodes.get(state.get("output", ""))
-    if output is not None:
-        output.is_active_output = True
-    del material[STATE_KEY]
+    strip_display_nodes(material)
     return material
 
 

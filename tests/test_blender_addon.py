@@ -1,35 +1,22 @@
 """The extension inside Blender (the bpy module, headless): registration, export, bake,
 write-back, the baked-lighting switch, renders alongside Luxel's GL context, the command line."""
+import importlib
 import math
 
 import numpy as np
 import pytest
 
+import blender_scenes
 import blender_session
 
 bpy = blender_session.blender()
+reference = importlib.import_module(blender_session.MODULE + ".addon.reference")
 
 
 # ------------------------------------------------------------------ scene helpers
-def material(name, colour, emission=0.0):
-    mat = bpy.data.materials.new(name)
-    principled = mat.node_tree.nodes["Principled BSDF"]
-    principled.inputs["Base Color"].default_value = (*colour, 1.0)
-    if emission:
-        principled.inputs["Emission Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-        principled.inputs["Emission Strength"].default_value = emission
-    return mat
-
-
-def mesh_object(scene, name, vertices, faces, mat=None, location=(0, 0, 0)):
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(vertices, [], faces)
-    if mat is not None:
-        mesh.materials.append(mat)
-    obj = bpy.data.objects.new(name, mesh)
-    obj.location = location
-    scene.collection.objects.link(obj)
-    return obj
+material, mesh_object, light = (blender_scenes.material, blender_scenes.mesh_object,
+                                blender_scenes.light)
+lightmap_pixels = reference.luxel_lightmap
 
 
 def cube(scene, name, size, location, mat=None, inward=False):
@@ -38,19 +25,18 @@ def cube(scene, name, size, location, mat=None, inward=False):
     faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
     if inward:
         faces = [face[::-1] for face in faces]
-    return mesh_object(scene, name, vertices, faces, mat, location)
+    obj = mesh_object(scene, name, vertices, faces, mat)
+    obj.location = location
+    return obj
 
 
-def room_scene(light=True):
+def room_scene(with_light=True):
     """A closed 4 m room with a block floating 10 cm over its floor and a point light."""
     scene = blender_session.empty_file()
     cube(scene, "room", 4.0, (0, 0, 2), material("walls", (0.6, 0.6, 0.6)), inward=True)
     cube(scene, "block", 1.0, (0.5, 0.3, 0.6), material("block", (0.5, 0.2, 0.2)))
-    if light:
-        lamp = bpy.data.objects.new("lamp", bpy.data.lights.new("lamp", 'POINT'))
-        lamp.data.energy = 400.0
-        lamp.location = (-0.8, -0.6, 3.0)
-        scene.collection.objects.link(lamp)
+    if with_light:
+        light(scene, "lamp", 'POINT', (-0.8, -0.6, 3.0), energy=400.0)
     scene.luxel.texel_density = 6.0
     scene.luxel.threshold = 0.02
     return scene
@@ -83,13 +69,6 @@ def node_tree_snapshot():
         active = tree.nodes.active.name if tree.nodes.active else None
         state[mat.name] = (nodes, links, active, sorted(mat.keys()))
     return state
-
-
-def lightmap_pixels(obj):
-    image = obj.luxel.image
-    pixels = np.empty(image.size[0] * image.size[1] * 4, dtype=np.float32)
-    image.pixels.foreach_get(pixels)
-    return pixels.reshape(image.size[1], image.size[0], 4)
 
 
 def texels_of(obj):
@@ -187,7 +166,7 @@ def test_point_light_on_the_floor_matches_cos_over_r_squared():
 
 
 def test_bake_reports_a_scene_without_light_and_changes_nothing():
-    scene = room_scene(light=False)
+    scene = room_scene(with_light=False)
     before = mesh_snapshot(scene)
     with pytest.raises(RuntimeError, match="no light"):
         bpy.ops.luxel.bake()
@@ -252,21 +231,13 @@ def test_hidden_instanced_and_modified_objects_export_as_they_render():
 
 
 def test_blender_lights_export_in_cycles_units():
-    scene = room_scene(light=False)
+    scene = room_scene(with_light=False)
     export = blender_session.addon().addon.export
-    area = bpy.data.objects.new("panel", bpy.data.lights.new("panel", 'AREA'))
-    area.data.shape = 'RECTANGLE'
-    area.data.size, area.data.size_y = 0.5, 0.25
-    area.data.energy = 20.0
-    area.location = (0, 0, 3.5)
-    scene.collection.objects.link(area)
-    spot = bpy.data.objects.new("spot", bpy.data.lights.new("spot", 'SPOT'))
-    spot.data.energy = 100.0
-    spot.data.spot_size = math.radians(60)
-    spot.data.spot_blend = 0.3
-    spot.location = (1, 0, 3)
-    spot.rotation_euler = (math.radians(90), 0, 0)      # -Z turned to +Y
-    scene.collection.objects.link(spot)
+    light(scene, "panel", 'AREA', (0, 0, 3.5), energy=20.0, shape='RECTANGLE', size=0.5,
+          size_y=0.25)
+    # -Z turned to +Y
+    light(scene, "spot", 'SPOT', (1, 0, 3), (math.radians(90), 0, 0), energy=100.0,
+          spot_size=math.radians(60), spot_blend=0.3)
 
     result = export.export_scene(bpy.context).scene
     panel = result.object_index == result.object_names.index("panel")
@@ -276,13 +247,13 @@ def test_blender_lights_export_in_cycles_units():
     corners = result.vertices[result.triangles[panel]]
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     assert (normals[:, 2] < 0).all()
-    light = next(l for l in result.lights if l.name == "spot")
-    np.testing.assert_allclose(light.direction, (0, 1, 0), atol=1e-6)
-    assert light.spot_size == pytest.approx(math.radians(60)) and light.power == 100.0
+    spot = next(l for l in result.lights if l.name == "spot")
+    np.testing.assert_allclose(spot.direction, (0, 1, 0), atol=1e-6)
+    assert spot.spot_size == pytest.approx(math.radians(60)) and spot.power == 100.0
 
 
 def test_world_colour_is_a_uniform_sky():
-    scene = room_scene(light=False)
+    scene = room_scene(with_light=False)
     background = scene.world.node_tree.nodes["Background"]
     background.inputs["Color"].default_value = (0.2, 0.4, 0.6, 1.0)
     background.inputs["Strength"].default_value = 2.0
@@ -348,7 +319,7 @@ def test_cli_rejects_a_bad_argument_and_a_scene_without_light(capsys):
     assert "--shots" in capsys.readouterr().err
     assert run_cli(["bake", "--threshold", "2"]) != 0
     assert "--threshold" in capsys.readouterr().err
-    room_scene(light=False)
+    room_scene(with_light=False)
     assert run_cli(["bake"]) != 0
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1 and "no light" in error[0]
@@ -389,10 +360,7 @@ def test_workbench_shows_the_lightmap_through_its_own_uv_map(tmp_path):
     plane = mesh_object(scene, "plane", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)],
                         [(0, 1, 2, 3)], material("plane", (0.5, 0.5, 0.5)))
     plane.data.uv_layers.new(name="UVMap")
-    spot = bpy.data.objects.new("spot", bpy.data.lights.new("spot", 'SPOT'))
-    spot.data.energy, spot.data.spot_size = 300.0, math.radians(60)
-    spot.location = (0, 0, 2)
-    scene.collection.objects.link(spot)
+    light(scene, "spot", 'SPOT', (0, 0, 2), energy=300.0, spot_size=math.radians(60))
     camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
     camera.location = (0, 0, 6)
     scene.collection.objects.link(camera)
@@ -435,7 +403,6 @@ def test_image_texture_albedo_is_sampled_through_the_materials_uv_map():
     texture.image = image
     mat.node_tree.links.new(texture.outputs["Color"],
                             mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
-    mat.node_tree.nodes["Principled BSDF"].inputs["Specular IOR Level"].default_value = 0.0
     floor = mesh_object(scene, "floor", [(-2, -1, 0), (0, -1, 0), (0, 1, 0), (-2, 1, 0),
                                          (2, -1, 0), (2, 1, 0)],
                         [(0, 1, 2, 3), (1, 4, 5, 2)], mat)
@@ -443,9 +410,7 @@ def test_image_texture_albedo_is_sampled_through_the_materials_uv_map():
     corners_u = {0: 0.0, 1: 0.5, 2: 0.5, 3: 0.0, 4: 1.0, 5: 1.0}
     for loop in floor.data.loops:
         layer.data[loop.index].uv = (corners_u[loop.vertex_index], 0.5)
-    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", 'SUN'))
-    sun.data.energy = 3.0
-    scene.collection.objects.link(sun)
+    light(scene, "sun", 'SUN', (0, 0, 5), energy=3.0)
     scene.luxel.texel_density = 8
     bpy.ops.luxel.bake()
 
