@@ -5,10 +5,12 @@ from .errors import GLUnavailableError, GPUMemoryError, LuxelError, SceneError, 
 from .gpu import create_context
 from .output import read_exr, tone_map, write_exr, write_png
 from .scene import PointLight, Scene, SpotLight, SunLight
-from .solver import Ledger, Progress, Settings, Solver
+from .solver import (MAX_SUBDIVISION_LEVEL, PROJECTIONS, SUBDIVISIONS, Ledger, Progress,
+                     Settings, Solver)
 
 __all__ = [
     "Atlas", "build_atlas", "GLUnavailableError", "GPUMemoryError", "LuxelError", "SceneError",
     "SettingsError", "create_context", "read_exr", "tone_map", "write_exr", "write_png",
     "PointLight", "Scene", "SpotLight", "SunLight", "Ledger", "Progress", "Settings", "Solver",
+    "PROJECTIONS", "SUBDIVISIONS", "MAX_SUBDIVISION_LEVEL",
 ]

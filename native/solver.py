@@ -33,6 +33,9 @@ PHASES = ("preprocess", "selection", "visibility", "receivers", "postprocess")
 # strongest one's; the rest wait for a later shot. Lumping a bright corner with dim texels
 # would shoot the bright energy from the wrong place (across a shadow boundary, say).
 SIMILAR_RADIANCE = 0.25
+PROJECTIONS = ("HEMICUBE", "HEMISPHERE", "NONLINEAR")
+SUBDIVISIONS = ("NONE", "ADAPTIVE", "REGULAR")
+MAX_SUBDIVISION_LEVEL = 3
 
 
 @dataclass
@@ -46,6 +49,21 @@ class Settings:
     max_shots: int = 10000           # stop after this many shots
     memory_limit: int = 4 << 30      # bytes of GPU memory Luxel may use
     sky_directions: int = 256        # suns that stand in for a uniform sky (world colour)
+    # Visibility around each shooter: HEMICUBE (five faces of hemicube_resolution), HEMISPHERE
+    # (stereographic, per vertex: straight edges stay straight) or NONLINEAR (Gascuel et al.
+    # 2008: exact spherical triangles). The hemisphere maps are 2 * hemicube_resolution wide,
+    # which samples the zenith as finely as the hemicube does.
+    projection: str = "HEMICUBE"
+    neighbour_visibility: bool = True  # visible when any of the 3x3 map texels sees it (Sec. 5.2)
+    # Receiver refinement: NONE, ADAPTIVE (triangles whose shadowed share of texels lies in
+    # [subdivision_shadow_min, subdivision_shadow_max], found by occlusion queries, and the
+    # casters of their shadows) or REGULAR (every triangle), up to subdivision_level: a texel
+    # at level k gathers light at 4^k points.
+    subdivision: str = "NONE"
+    subdivision_level: int = 2
+    subdivision_shadow_min: float = 0.02
+    subdivision_shadow_max: float = 0.98
+    adaptive_shoot_level: bool = False  # weak shooters shoot from coarser blocks (Sec. 5.1)
     profile: bool = False            # wait for the GPU after each phase for exact timings
 
     def validate(self):
@@ -57,6 +75,14 @@ class Settings:
             (0.0 <= self.threshold < 1.0, "threshold must be in [0, 1)"),
             (self.max_shots >= 0, "max_shots must be 0 or more"),
             (1 <= self.sky_directions <= 65536, "sky_directions must be in 1..65536"),
+            (self.projection in PROJECTIONS,
+             f"projection must be one of {', '.join(PROJECTIONS)}"),
+            (self.subdivision in SUBDIVISIONS,
+             f"subdivision must be one of {', '.join(SUBDIVISIONS)}"),
+            (0 <= self.subdivision_level <= MAX_SUBDIVISION_LEVEL,
+             f"subdivision_level must be in 0..{MAX_SUBDIVISION_LEVEL}"),
+            (0.0 <= self.subdivision_shadow_min < self.subdivision_shadow_max <= 1.0,
+             "subdivision shadow thresholds must satisfy 0 <= min < max <= 1"),
         ]
         for ok, message in checks:
             if not ok:
