@@ -6,9 +6,9 @@ import sys
 
 import bpy
 
-from ..native import LuxelError
+from ..native import MAX_SUBDIVISION_LEVEL, LuxelError
 from .bake import BakeJob
-from .properties import PROJECTIONS
+from .properties import PROJECTIONS, SUBDIVISIONS
 
 EXIT_FAILED = 1
 EXIT_USAGE = 2
@@ -29,6 +29,16 @@ def _parser():
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     bake = commands.add_parser("bake", help="bake the open .blend's scene")
     bake.add_argument("--projection", choices=[item[0] for item in PROJECTIONS])
+    bake.add_argument("--no-neighbour-visibility", action="store_true",
+                      help="a receiver is visible only when its own visibility texel sees it")
+    bake.add_argument("--subdivision", choices=[item[0] for item in SUBDIVISIONS],
+                      help="texels that gather light at several points")
+    bake.add_argument("--subdivision-level", type=int, metavar="N",
+                      help=f"gather at 4^N points per texel, N in 1..{MAX_SUBDIVISION_LEVEL}")
+    bake.add_argument("--shadow-range", type=float, nargs=2, metavar=("MIN", "MAX"),
+                      help="ADAPTIVE refines triangles whose shadowed share lies in [MIN, MAX]")
+    bake.add_argument("--adaptive-shoot-level", action="store_true",
+                      help="weak shooters shoot from coarser blocks")
     bake.add_argument("--shots", type=int, help="stop after this many shots")
     bake.add_argument("--threshold", type=float, help="stop at this unshot energy fraction")
     bake.add_argument("--density", type=float, help="lightmap texels per metre")
@@ -62,6 +72,14 @@ def _check(args):
         raise _UsageError("--threshold must be in [0, 1), e.g. 0.01")
     if args.density is not None and not args.density > 0.0:
         raise _UsageError("--density must be a positive number of texels per metre")
+    if (args.subdivision_level is not None
+            and not 1 <= args.subdivision_level <= MAX_SUBDIVISION_LEVEL):
+        raise _UsageError(f"--subdivision-level must be in 1..{MAX_SUBDIVISION_LEVEL}")
+    if args.shadow_range is not None:
+        shadow_min, shadow_max = args.shadow_range
+        if not 0.0 <= shadow_min < shadow_max <= 1.0:
+            raise _UsageError("--shadow-range MIN MAX must satisfy 0 <= MIN < MAX <= 1, "
+                              "e.g. 0.02 0.98")
     if args.save and not bpy.data.filepath:
         raise _UsageError("--save needs a .blend file: open one with blender -b FILE.blend")
 
@@ -71,6 +89,16 @@ def _bake(args):
     settings = context.scene.luxel
     if args.projection:
         settings.projection = args.projection
+    if args.no_neighbour_visibility:
+        settings.neighbour_visibility = False
+    if args.subdivision:
+        settings.subdivision = args.subdivision
+    if args.subdivision_level is not None:
+        settings.subdivision_level = args.subdivision_level
+    if args.shadow_range is not None:
+        settings.subdivision_shadow_min, settings.subdivision_shadow_max = args.shadow_range
+    if args.adaptive_shoot_level:
+        settings.adaptive_shoot_level = True
     if args.shots is not None:
         settings.max_shots = args.shots
     if args.threshold is not None:

@@ -15,17 +15,54 @@ class LUXEL_PT_render(bpy.types.Panel):
         settings = context.scene.luxel
         layout.operator("luxel.bake", icon='RENDER_STILL')
         column = layout.column()
-        column.prop(settings, "projection")
         column.prop(settings, "texel_density")
         column.prop(settings, "threshold")
         column.prop(settings, "max_shots")
-        column.prop(settings, "hemicube_resolution")
         column.prop(settings, "shoot_level")
+        column.prop(settings, "adaptive_shoot_level", text="Adaptive")
         column.prop(settings, "max_atlas_size")
         column.prop(settings, "output")
         if settings.output == 'FILES':
             column.prop(settings, "directory")
         layout.prop(settings, "show_baked")
+
+
+class LUXEL_PT_render_visibility(bpy.types.Panel):
+    bl_label = "Visibility"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "render"
+    bl_parent_id = "LUXEL_PT_render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.luxel
+        column = layout.column()
+        column.prop(settings, "projection")
+        column.prop(settings, "hemicube_resolution", text="Resolution")
+        column.prop(settings, "neighbour_visibility")
+
+
+class LUXEL_PT_render_subdivision(bpy.types.Panel):
+    bl_label = "Subdivision"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "render"
+    bl_parent_id = "LUXEL_PT_render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.luxel
+        layout.prop(settings, "subdivision")
+        if settings.subdivision == 'NONE':
+            return
+        layout.prop(settings, "subdivision_level", text="Level")
+        if settings.subdivision == 'ADAPTIVE':
+            column = layout.column(align=True)
+            column.prop(settings, "subdivision_shadow_min")
+            column.prop(settings, "subdivision_shadow_max", text="Max")
 
 
 class LUXEL_PT_render_stats(bpy.types.Panel):
@@ -73,7 +110,8 @@ class LUXEL_PT_object(bpy.types.Panel):
 
 
 _register, _unregister = bpy.utils.register_classes_factory(
-    (LUXEL_PT_render, LUXEL_PT_render_stats, LUXEL_PT_object))
+    (LUXEL_PT_render, LUXEL_PT_render_visibility, LUXEL_PT_render_subdivision,
+     LUXEL_PT_render_stats, LUXEL_PT_object))
 
 
 def register():

@@ -3,12 +3,23 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-from ..native import Settings
+from ..native import MAX_SUBDIVISION_LEVEL, Settings
 
 _DEFAULTS = Settings()
 
 PROJECTIONS = [
     ("HEMICUBE", "Hemicube", "Five rasterised faces around each shooter (the paper's baseline)"),
+    ("HEMISPHERE", "Hemisphere", "Stereographic projection per vertex: one render, straight "
+     "edges stay straight"),
+    ("NONLINEAR", "Non-Linear", "Non-linear hemisphere projection (Gascuel et al. 2008): exact "
+     "spherical triangles in one render"),
+]
+
+SUBDIVISIONS = [
+    ("NONE", "None", "Each texel gathers light at its centre"),
+    ("ADAPTIVE", "Adaptive", "Refine triangles partly in shadow, and the triangles casting the "
+     "shadow: sharper shadow edges for less work than Regular"),
+    ("REGULAR", "Regular", "Refine every triangle: each texel gathers light at 4^level points"),
 ]
 
 OUTPUTS = [
@@ -33,7 +44,7 @@ class LuxelBakeStats(bpy.types.PropertyGroup):
 
 
 class LuxelSceneSettings(bpy.types.PropertyGroup):
-    projection: EnumProperty(name="Projection", items=PROJECTIONS, default="HEMICUBE",
+    projection: EnumProperty(name="Projection", items=PROJECTIONS, default=_DEFAULTS.projection,
                              description="How visibility is sampled around each shooter")
     texel_density: FloatProperty(name="Texel Density", default=_DEFAULTS.texel_density,
                                  min=0.01, soft_max=1000.0,
@@ -45,7 +56,8 @@ class LuxelSceneSettings(bpy.types.PropertyGroup):
                              "power is left unshot")
     hemicube_resolution: IntProperty(name="Hemicube Resolution",
                                      default=_DEFAULTS.hemicube_resolution, min=8, max=4096,
-                                     description="Texels on a side of each visibility face")
+                                     description="Texels on a side of each hemicube face; the "
+                                     "hemisphere projections' maps are twice as wide")
     shoot_level: IntProperty(name="Shoot Level", default=_DEFAULTS.shoot_level, min=0, max=6,
                              description="Mip level shot from: a shooter spans 2^level texels")
     max_atlas_size: IntProperty(name="Max Image Size", default=_DEFAULTS.max_atlas_size,
@@ -59,13 +71,43 @@ class LuxelSceneSettings(bpy.types.PropertyGroup):
                              update=_show_baked_changed,
                              description="Display the baked lightmaps in EEVEE, Cycles and "
                              "Workbench; turning it off restores the materials exactly")
+    adaptive_shoot_level: BoolProperty(name="Adaptive Shoot Level",
+                                       default=_DEFAULTS.adaptive_shoot_level,
+                                       description="Shooters with little unshot energy shoot "
+                                       "from coarser blocks of texels: fewer, larger shots")
+    neighbour_visibility: BoolProperty(name="Neighbour Visibility",
+                                       default=_DEFAULTS.neighbour_visibility,
+                                       description="A receiver is visible when any of the 3x3 "
+                                       "visibility texels around it sees it, against dark "
+                                       "speckles where the visibility map undersamples")
+    subdivision: EnumProperty(name="Subdivision", items=SUBDIVISIONS,
+                              default=_DEFAULTS.subdivision,
+                              description="Where texels gather light at several points")
+    subdivision_level: IntProperty(name="Subdivision Level", default=_DEFAULTS.subdivision_level,
+                                   min=1, max=MAX_SUBDIVISION_LEVEL,
+                                   description="A texel at level k gathers light at 4^k points")
+    subdivision_shadow_min: FloatProperty(name="Shadow Min",
+                                          default=_DEFAULTS.subdivision_shadow_min,
+                                          min=0.0, max=1.0, subtype='FACTOR',
+                                          description="Adaptive refines a triangle when at "
+                                          "least this share of its texels is in shadow")
+    subdivision_shadow_max: FloatProperty(name="Shadow Max",
+                                          default=_DEFAULTS.subdivision_shadow_max,
+                                          min=0.0, max=1.0, subtype='FACTOR',
+                                          description="Adaptive refines a triangle when at "
+                                          "most this share of its texels is in shadow")
     stats: PointerProperty(type=LuxelBakeStats)
 
     def solver_settings(self):
         return Settings(texel_density=self.texel_density, max_atlas_size=self.max_atlas_size,
                         hemicube_resolution=self.hemicube_resolution,
                         shoot_level=self.shoot_level, threshold=self.threshold,
-                        max_shots=self.max_shots)
+                        max_shots=self.max_shots, projection=self.projection,
+                        neighbour_visibility=self.neighbour_visibility,
+                        subdivision=self.subdivision, subdivision_level=self.subdivision_level,
+                        subdivision_shadow_min=self.subdivision_shadow_min,
+                        subdivision_shadow_max=self.subdivision_shadow_max,
+                        adaptive_shoot_level=self.adaptive_shoot_level)
 
 
 class LuxelObjectSettings(bpy.types.PropertyGroup):

@@ -191,3 +191,17 @@ class GLObjects:
 
     def __len__(self):
         return len(self._objects)
+
+
+QUERY_POOL_SIZE = 512
+
+
+def query_pool(ctx):
+    """Occlusion queries for ``ctx``. moderngl cannot delete query objects, so each context
+    keeps one pool, reused by every solver on it and freed with the context."""
+    if ctx.extra is None:
+        ctx.extra = {}
+    pool = ctx.extra.setdefault("luxel_queries", [])
+    while len(pool) < QUERY_POOL_SIZE:
+        pool.append(ctx.query(samples=True))
+    return pool

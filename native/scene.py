@@ -1,5 +1,6 @@
 """Scene description handed to the solver: plain numpy arrays, validated on construction."""
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
+import json
 import math
 
 import numpy as np
@@ -250,3 +251,46 @@ class Scene:
 
     def bounds(self):
         return self.vertices.min(axis=0), self.vertices.max(axis=0)
+
+    def save(self, path):
+        """Write the scene to a compressed .npz that load() reads back without Blender or
+        pickle: every field, the lights as JSON with their type, the textures one per key."""
+        arrays = {}
+        for name in (f.name for f in fields(self)):
+            value = getattr(self, name)
+            if name == "lights":
+                value = json.dumps([{"type": type(light).__name__, **_plain(asdict(light))}
+                                    for light in value])
+            elif name == "albedo_textures":
+                for index, image in enumerate(value):
+                    arrays[f"{_TEXTURE_KEY}{index}"] = np.asarray(image)
+                continue
+            elif value is None:
+                continue
+            arrays[name] = np.asarray(value)
+        with open(path, "wb") as file:
+            np.savez_compressed(file, **arrays)
+
+    @classmethod
+    def load(cls, path):
+        """The scene save() wrote, validated again as any new scene is."""
+        with np.load(path, allow_pickle=False) as stored:
+            values = {key: stored[key] for key in stored.files}
+        textures = sorted((key for key in values if key.startswith(_TEXTURE_KEY)),
+                          key=lambda key: int(key[len(_TEXTURE_KEY):]))
+        values["albedo_textures"] = [values.pop(key) for key in textures]
+        values["lights"] = [_LIGHT_TYPES[light.pop("type")](**light)
+                            for light in json.loads(str(values["lights"]))]
+        values["object_names"] = [str(name) for name in values["object_names"]]
+        values["object_texel_scale"] = values["object_texel_scale"].tolist()
+        return cls(**values)
+
+
+_TEXTURE_KEY = "albedo_textures_"
+_LIGHT_TYPES = {light.__name__: light for light in (PointLight, SpotLight, SunLight)}
+
+
+def _plain(light_fields):
+    """Light fields as JSON numbers and lists (positions may be numpy arrays)."""
+    return {key: np.asarray(value).tolist() if not isinstance(value, str) else value
+            for key, value in light_fields.items()}

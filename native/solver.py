@@ -20,7 +20,7 @@ import numpy as np
 
 from .atlas import build_atlas
 from .errors import GPUMemoryError, SettingsError
-from .gpu import GLObjects, create_context, using
+from .gpu import GLObjects, create_context, query_pool, using
 from .scene import SpotLight, SunLight
 
 # Per texel: position+area, normal+size, irradiance, unshot, emission (RGBA32F, 16 B each),
@@ -28,7 +28,7 @@ from .scene import SpotLight, SunLight
 BYTES_PER_TEXEL = 5 * 16 + 2 * 8 + 4
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
                  ("in_albedo", 3), ("in_emission", 4), ("in_receive", 1))
-PHASES = ("preprocess", "selection", "visibility", "receivers", "postprocess")
+PHASES = ("preprocess", "selection", "visibility", "subdivision", "receivers", "postprocess")
 # A shooter takes the texels of its block whose unshot radiance is at least this share of the
 # strongest one's; the rest wait for a later shot. Lumping a bright corner with dim texels
 # would shoot the bright energy from the wrong place (across a shadow boundary, say).
@@ -36,6 +36,13 @@ SIMILAR_RADIANCE = 0.25
 PROJECTIONS = ("HEMICUBE", "HEMISPHERE", "NONLINEAR")
 SUBDIVISIONS = ("NONE", "ADAPTIVE", "REGULAR")
 MAX_SUBDIVISION_LEVEL = 3
+# Adaptive subdivision looks for shadow boundaries only in shots carrying at least this share
+# of the strongest shot's power: the weak late shots add soft light, and each look costs two
+# occlusion queries per receiving triangle facing the shooter.
+SUBDIVISION_MIN_SHARE = 0.1
+# The adaptive shooting level coarsens a shot by one level (4x the texels) for every 4x less
+# power than the strongest patch shot had, by at most this many levels.
+MAX_COARSER_LEVELS = 2
 
 
 @dataclass
@@ -131,6 +138,7 @@ class _Page:
     receivers: object       # framebuffer: irradiance, unshot
     unshot_only: object     # framebuffer: unshot
     area_only: object       # framebuffer: position (area in .w)
+    level_only: object      # framebuffer: tangent (subdivision level in .w)
     textures: dict
     pyramid: list = field(default_factory=list)   # (texture, framebuffer) from block level to 1x1
 
@@ -182,7 +190,7 @@ class Solver:
             if self._pending:
                 self._shoot_light(self._pending.pop(0))
             else:
-                shooter = self._timed("selection", self._gather_shooter, page, block)
+                shooter = self._timed("selection", self._gather_shooter, page, block, power)
                 if shooter is None:  # the GPU's float sums saw power the texels do not hold
                     self.converged = self.finished = True
                     return False
@@ -288,6 +296,12 @@ class Solver:
         self._centre = 0.5 * (lo + hi)
         self._radius = 0.5 * float(np.linalg.norm(hi - lo)) * 1.01 + 1e-6
         self._epsilon = 1e-5 * self._radius
+        # Subdivision also tessellates the casters of the per-vertex projection, whose straight
+        # edges would otherwise misplace shadow boundaries (the paper's Figure 5).
+        self._caster_split = (1 << settings.subdivision_level
+                              if settings.subdivision != "NONE" else 1)
+        # Hemisphere maps are twice the hemicube's side: the same texels per radian at the zenith.
+        self._map_size = settings.hemicube_resolution * (1 if settings.projection == "HEMICUBE" else 2)
 
         self.atlas = build_atlas(scene, settings.texel_density, settings.max_atlas_size,
                                  settings.padding)
@@ -300,12 +314,22 @@ class Solver:
             "block": gl.program("fullscreen.vert", "block_power.frag"),
             "argmax": gl.program("fullscreen.vert", "argmax.frag"),
             "visibility": gl.program("visibility.vert", "visibility.frag", "visibility.geom"),
+            "hemisphere": gl.program("visibility_hemisphere.vert", "visibility_hemisphere.frag",
+                                     "visibility_hemisphere.geom"),
+            "hemisphere_tessellated": gl.program(
+                "visibility_hemisphere.vert", "visibility_hemisphere.frag",
+                "visibility_hemisphere_tessellated.geom"),
+            "nonlinear": gl.program("visibility.vert", "visibility_nonlinear.frag",
+                                    "visibility_nonlinear.geom"),
             "patch": gl.program("fullscreen.vert", "receive_patch.frag"),
             "light": gl.program("fullscreen.vert", "receive_light.frag"),
             "clear": gl.program("clear_texels.vert", "clear_texels.frag"),
             "resolve": gl.program("fullscreen.vert", "resolve.frag"),
             "dilate": gl.program("fullscreen.vert", "dilate.frag"),
         }
+        if settings.subdivision != "NONE":
+            self._programs["count"] = gl.program("raster.vert", "shadow_count.frag", "raster.geom")
+            self._programs["level"] = gl.program("raster.vert", "set_level.frag", "raster.geom")
         self._fullscreen = {name: gl.vertex_array(self._programs[name], [])
                             for name in ("init", "block", "argmax", "patch", "light",
                                          "resolve", "dilate")}
@@ -323,8 +347,8 @@ class Solver:
         self._pages = [self._allocate_page(size) for _ in range(self.atlas.page_count)]
         self._rasterize()
 
-        resolution = settings.hemicube_resolution
-        self._visibility = gl.texture_array((resolution, resolution, 6), 1)
+        resolution, layers = self._map_size, 6 if settings.projection == "HEMICUBE" else 2
+        self._visibility = gl.texture_array((resolution, resolution, layers), 1)
         self._visibility_fbo = gl.framebuffer([self._visibility])
         # Only occluders go into the visibility buffer; at least one triangle keeps it valid.
         occluders = scene.triangles[scene.occlude] if scene.occlude.any() else scene.triangles[:0]
@@ -332,11 +356,15 @@ class Solver:
         if not len(positions):
             positions = np.full((1, 3, 3), 1e30, dtype="f4")
         self._scene_vbo = gl.buffer(positions.tobytes())
-        self._visibility_vao = gl.vertex_array(
-            self._programs["visibility"], [(self._scene_vbo, "3f", "in_position")])
+        self._visibility_vaos = {
+            name: gl.vertex_array(self._programs[name], [(self._scene_vbo, "3f", "in_position")])
+            for name in ("visibility", "hemisphere", "hemisphere_tessellated", "nonlinear")}
         self._triangle_vertices = positions.shape[0] * 3
-        block = 1 << settings.shoot_level
+        block = 1 << (settings.shoot_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
+                                              else 0))
         self._clear_vbo = gl.buffer(reserve=block * block * 8)
+        self._strongest_patch = 0.0
+        self._strongest_shot = 0.0
         self._clear_vao = gl.vertex_array(self._programs["clear"],
                                           [(self._clear_vbo, "2f", "in_texel")])
 
@@ -350,9 +378,11 @@ class Solver:
     def _set_constant_uniforms(self):
         """Uniforms that stay the same for the whole bake (texture units among them)."""
         size = (float(self.atlas.width), float(self.atlas.height))
-        receivers = {"u_resolution": float(self.settings.hemicube_resolution),
+        receivers = {"u_resolution": float(self._map_size),
                      "u_epsilon": self._epsilon, "u_ortho_half": self._radius,
-                     "u_visibility": 0, "u_position": 1, "u_normal": 2, "u_albedo": 3}
+                     "u_neighbour_visibility": int(self.settings.neighbour_visibility),
+                     "u_visibility": 0, "u_position": 1, "u_normal": 2, "u_albedo": 3,
+                     "u_tangent": 4}
         constants = {
             "attributes": {"u_atlas_size": size, "u_albedo_texture": 0},
             "area": {"u_atlas_size": size},
@@ -361,13 +391,21 @@ class Solver:
                       "u_position": 0, "u_unshot": 1, "u_emission": 2},
             "argmax": {"u_source": 0},
             "visibility": {"u_ortho_half": self._radius},
+            "nonlinear": {"u_resolution": float(self._map_size)},
+            "hemisphere": {"u_resolution": float(self._map_size)},
+            "hemisphere_tessellated": {"u_resolution": float(self._map_size),
+                                       "u_max_split": self._caster_split},
             "patch": receivers,
             "light": receivers,
             "clear": {"u_atlas_size": size},
             "resolve": {"u_position": 0, "u_albedo": 1, "u_irradiance": 2},
+            "count": {**receivers, "u_atlas_size": size},
+            "level": {"u_atlas_size": size},
             "dilate": {"u_source": 0},
         }
         for name, uniforms in constants.items():
+            if name not in self._programs:
+                continue
             for uniform, value in uniforms.items():
                 _set(self._programs[name], uniform, value)
 
@@ -375,7 +413,7 @@ class Solver:
         texels = atlas.width * atlas.height * atlas.page_count
         block = 1 << self.settings.shoot_level
         pyramid = texels / (block * block) * 16 * 4 / 3
-        visibility = self.settings.hemicube_resolution ** 2 * 6 * 4
+        visibility = self._map_size ** 2 * 6 * 4
         return int(texels * BYTES_PER_TEXEL + pyramid + visibility)
 
     def _fits(self, atlas):
@@ -422,6 +460,7 @@ class Solver:
             receivers=gl.framebuffer([textures["irradiance"], textures["unshot"]]),
             unshot_only=gl.framebuffer([textures["unshot"]]),
             area_only=gl.framebuffer([textures["position"]]),
+            level_only=gl.framebuffer([textures["tangent"]]),
             textures=textures)
         block = 1 << self.settings.shoot_level
         level = (-(-size[0] // block), -(-size[1] // block))
@@ -466,6 +505,7 @@ class Solver:
                                       [_buffer_content(self._programs[name], vbo, RASTER_LAYOUT)])
                 for name in ("attributes", "area")}
         ctx = self.ctx
+        self._prepare_subdivision(vbo, tris[order], atlas.page[order])
 
         for page in self._pages:
             page.attributes.use()
@@ -498,6 +538,110 @@ class Solver:
             page.unshot_only.use()
             page.textures["emission"].use(location=0)
             self._fullscreen["init"].render(moderngl.TRIANGLES, vertices=3)
+        if self.settings.subdivision == "REGULAR":
+            self._raise_levels(np.nonzero(self._slot_receives)[0], self.settings.subdivision_level)
+
+    # ----------------------------------------------------------------- subdivision
+    def _prepare_subdivision(self, vbo, slot_triangles, slot_pages):
+        """Per triangle of the lightmap vertex buffer (its 'slot'): page, geometry and
+        subdivision level, for the occlusion queries and level updates."""
+        scene = self.scene
+        self._slot_pages = slot_pages
+        self._slot_receives = scene.receive[slot_triangles]
+        self._slot_levels = np.zeros(len(slot_triangles), dtype=np.int32)
+        if self.settings.subdivision == "NONE":
+            return
+        corners = scene.vertices[scene.triangles[slot_triangles]]
+        self._slot_corners = corners
+        self._slot_centres = corners.mean(axis=1)
+        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        self._slot_normals = normals / np.maximum(np.linalg.norm(normals, axis=1), 1e-30)[:, None]
+        self._level_vaos = {
+            name: self._gl.vertex_array(self._programs[name],
+                                        [_buffer_content(self._programs[name], vbo, RASTER_LAYOUT)])
+            for name in ("count", "level")}
+
+    def _raise_levels(self, slots, level):
+        """Subdivide the triangles in ``slots`` to ``level``: their texels gather light at
+        4^level points from now on."""
+        if len(slots) == 0:
+            return
+        self._slot_levels[slots] = np.maximum(self._slot_levels[slots], level)
+        program = self._programs["level"]
+        _set(program, "u_level", float(level))
+        ctx = self.ctx
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_equation = moderngl.MAX
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        vao = self._level_vaos["level"]
+        for page_index in np.unique(self._slot_pages[slots]):
+            page = self._pages[page_index]
+            page.level_only.color_mask = (False, False, False, True)  # applied by use()
+            page.level_only.use()
+            for first, count in _runs(slots[self._slot_pages[slots] == page_index]):
+                vao.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * first)
+            page.level_only.color_mask = (True, True, True, True)
+        ctx.blend_equation = moderngl.FUNC_ADD
+        ctx.disable(moderngl.BLEND)
+
+    def _subdivide_shadowed(self, clip_below):
+        """Adaptive subdivision after the visibility map is drawn: occlusion queries count each
+        candidate triangle's lit and shadowed texels; a triangle whose shadowed share lies
+        between the thresholds goes one level finer."""
+        settings = self.settings
+        eye, frame, orthographic = self._view
+        candidates = self._slot_receives & (self._slot_levels < settings.subdivision_level)
+        if orthographic:
+            candidates &= self._slot_normals @ -frame[:, 2] > 0.0
+        else:
+            candidates &= ((eye - self._slot_centres) * self._slot_normals).sum(axis=1) > 0.0
+            if clip_below:
+                heights = (self._slot_corners - eye) @ frame[:, 2]
+                candidates &= heights.max(axis=1) > 0.0
+        slots = np.nonzero(candidates)[0]
+        if len(slots) == 0:
+            return
+        program = self._programs["count"]
+        self._view_uniforms(program, eye, frame, orthographic)
+        _set(program, "u_clip_below", int(clip_below))
+        self._visibility.use(location=0)
+        queries = query_pool(self.ctx)
+        batch = len(queries) // 2
+        counts = np.concatenate([self._count_shadowed(slots[start:start + batch], queries)
+                                 for start in range(0, len(slots), batch)])
+        looked = counts.sum(axis=1)
+        share = np.divide(counts[:, 1], looked, out=np.zeros(len(slots)), where=looked > 0)
+        shadowed = ((looked > 0) & (share >= settings.subdivision_shadow_min)
+                    & (share <= settings.subdivision_shadow_max))
+        for level in range(1, settings.subdivision_level + 1):
+            self._raise_levels(slots[shadowed & (self._slot_levels[slots] == level - 1)], level)
+
+    def _count_shadowed(self, slots, queries):
+        """(lit, shadowed) texel counts of each triangle in ``slots``, by occlusion queries."""
+        program = self._programs["count"]
+        vao = self._level_vaos["count"]
+        index = 0
+        for page_index in np.unique(self._slot_pages[slots]):
+            page = self._pages[page_index]
+            page.unshot_only.color_mask = (False, False, False, False)  # applied by use()
+            page.unshot_only.use()
+            page.textures["position"].use(location=1)
+            page.textures["normal"].use(location=2)
+            for slot in slots[self._slot_pages[slots] == page_index]:
+                for hidden in (0, 1):
+                    _set(program, "u_count_hidden", hidden)
+                    with queries[index + hidden]:
+                        vao.render(moderngl.TRIANGLES, vertices=3, first=3 * int(slot))
+                index += 2
+            page.unshot_only.color_mask = (True, True, True, True)
+        return np.array([query.samples for query in queries[:index]],
+                        dtype=np.float64).reshape(-1, 2)
+
+    @property
+    def subdivided_triangle_share(self):
+        """Share of the receiving triangles that are subdivided (any level)."""
+        receiving = self._slot_receives
+        return float(np.mean(self._slot_levels[receiving] > 0)) if receiving.any() else 0.0
 
     def _measure_emission(self):
         """Emitted power as the texels hold it (the unshot maps start as the emission, with
@@ -535,13 +679,23 @@ class Solver:
         return best[0], best[1], best[2], total
 
     # ----------------------------------------------------------------- shooting
-    def _gather_shooter(self, page_index, block):
+    def _coarser_levels(self, power):
+        """Adaptive shooting level: how many levels coarser than shoot_level this shot is,
+        from its block's power against the strongest patch shot so far."""
+        if not self.settings.adaptive_shoot_level:
+            return 0
+        self._strongest_patch = max(self._strongest_patch, power)
+        ratio = self._strongest_patch / max(power, 1e-30)
+        return int(min(MAX_COARSER_LEVELS, max(0.0, math.log(ratio, 4.0))))
+
+    def _gather_shooter(self, page_index, block, power):
         """Read back the chosen block's texels and make the shooter: the coplanar part of the
         block around its strongest texel with similar unshot radiance (blocks at coarse
         levels may also hold texels of other charts, which keep their energy)."""
         page = self._pages[page_index]
-        size = 1 << self.settings.shoot_level
-        x0, y0 = block[0] * size, block[1] * size
+        coarser = self._coarser_levels(power)
+        size = 1 << (self.settings.shoot_level + coarser)
+        x0, y0 = (block[0] >> coarser) * size, (block[1] >> coarser) * size
         width, height = min(size, self.atlas.width - x0), min(size, self.atlas.height - y0)
         viewport = (x0, y0, width, height)
 
@@ -579,9 +733,15 @@ class Solver:
             radiance_front=(front[members] * weights).sum(axis=0) / total_area,
             radiance_back=(back[members] * weights).sum(axis=0) / total_area)
 
+    def _maybe_subdivide(self, power, clip_below):
+        self._strongest_shot = max(self._strongest_shot, power)
+        if (self.settings.subdivision == "ADAPTIVE"
+                and power >= SUBDIVISION_MIN_SHARE * self._strongest_shot):
+            self._timed("subdivision", self._subdivide_shadowed, clip_below)
+
     def _shoot_patch(self, shooter):
-        self._shot_power = self._shot_power + math.pi * shooter.area * (
-            shooter.radiance_front + shooter.radiance_back)
+        shot_power = math.pi * shooter.area * (shooter.radiance_front + shooter.radiance_back)
+        self._shot_power = self._shot_power + shot_power
         two_sided = shooter.radiance_back.sum() > 0.0
         normal = shooter.frame[:, 2]
         # A one-sided shooter looks from just above its surface and clips what lies behind
@@ -589,6 +749,7 @@ class Solver:
         eye = shooter.centre if two_sided else shooter.centre + normal * self._epsilon
         self._timed("visibility", self._render_visibility, eye, shooter.frame,
                     6 if two_sided else 5, not two_sided, False)
+        self._maybe_subdivide(float(np.mean(shot_power)), not two_sided)
         self._clear_texels(shooter.page, shooter.texels)
         program = self._programs["patch"]
         _set(program, "u_quad", [tuple(corner) for corner in shooter.quad])
@@ -607,6 +768,7 @@ class Solver:
             _set(program, "u_light_kind", 2)
             _set(program, "u_light_value", tuple(light.irradiance()))
             self._timed("visibility", self._render_visibility, eye, frame, 1, False, True)
+            self._maybe_subdivide(float(np.mean(self._light_power(light))), False)
         else:
             eye = np.asarray(light.position, dtype=np.float64)
             _set(program, "u_light_kind", 0)
@@ -618,6 +780,7 @@ class Solver:
                 _set(program, "u_spot_cos_half", light.cos_half_angle())
                 _set(program, "u_spot_smooth", light.smooth_width())
             self._timed("visibility", self._render_visibility, eye, np.eye(3), 6, False, False)
+            self._maybe_subdivide(float(np.mean(self._light_power(light))), False)
         self._shot_power = self._shot_power + self._light_power(light)
         self._timed("receivers", self._update_receivers, "light")
 
@@ -632,25 +795,37 @@ class Solver:
         _set(program, "u_orthographic", int(orthographic))
         _set(program, "u_near", 1e-6 * self._radius if not orthographic else 0.0)
         _set(program, "u_far", 4.0 * self._radius + float(np.linalg.norm(eye - self._centre)))
+        _set(program, "u_hemisphere", int(self.settings.projection != "HEMICUBE"
+                                          and not orthographic))
 
     def _render_visibility(self, eye, frame, faces, clip_below, orthographic):
-        program = self._programs["visibility"]
+        """Distance map around the eye: ``faces`` cube faces (6 all round, 5 the hemicube in
+        front, 1 the sun's orthographic view) or, with a hemisphere projection, the front
+        hemisphere alone or both."""
+        hemisphere = self.settings.projection != "HEMICUBE" and not orthographic
+        name = "visibility"
+        if hemisphere and self.settings.projection == "NONLINEAR":
+            name = "nonlinear"
+        elif hemisphere:
+            name = "hemisphere_tessellated" if self._caster_split > 1 else "hemisphere"
+        program = self._programs[name]
         self._view_uniforms(program, eye, frame, orthographic)
-        _set(program, "u_face_count", faces)
+        _set(program, "u_face_count", (2 if faces == 6 else 1) if hemisphere else faces)
         _set(program, "u_clip_below", int(clip_below))
         self._view = (eye, frame, orthographic)
         ctx = self.ctx
         self._visibility_fbo.use()
         self._visibility_fbo.clear(3.0e38, 3.0e38, 3.0e38, 3.0e38)
-        if clip_below:
+        clip = clip_below or name.startswith("hemisphere")
+        if clip:
             ctx.enable_direct(0x3000)  # GL_CLIP_DISTANCE0
         ctx.enable(moderngl.BLEND)
         ctx.blend_equation = moderngl.MIN
         ctx.blend_func = moderngl.ONE, moderngl.ONE
-        self._visibility_vao.render(moderngl.TRIANGLES, vertices=self._triangle_vertices)
+        self._visibility_vaos[name].render(moderngl.TRIANGLES, vertices=self._triangle_vertices)
         ctx.blend_equation = moderngl.FUNC_ADD
         ctx.disable(moderngl.BLEND)
-        if clip_below:
+        if clip:
             ctx.disable_direct(0x3000)
 
     def _clear_texels(self, page, texels):
@@ -672,6 +847,7 @@ class Solver:
             page.textures["position"].use(location=1)
             page.textures["normal"].use(location=2)
             page.textures["albedo"].use(location=3)
+            page.textures["tangent"].use(location=4)
             self._fullscreen[kind].render(moderngl.TRIANGLES, vertices=3)
         ctx.disable(moderngl.BLEND)
 
@@ -773,3 +949,9 @@ def _frame_around(n):
     t = np.cross(helper, n)
     t /= np.linalg.norm(t)
     return np.stack([t, np.cross(n, t), n], axis=1)
+
+
+def _runs(slots):
+    """(first, count) of each run of consecutive integers in sorted ``slots``."""
+    breaks = np.nonzero(np.diff(slots) != 1)[0] + 1
+    return [(int(run[0]), len(run)) for run in np.split(slots, breaks)]

@@ -1,12 +1,15 @@
 // Views used for visibility. A cube of six 90-degree faces around the eye in the shooter's
 // frame (t, b, n): face 0 looks along +n, faces 1-4 along +-t and +-b with n up, face 5 along -n.
 // The hemicube is faces 0-4. In orthographic mode (the sun) there is one face looking along +n.
+// The hemisphere projections use two layers instead: 0 the hemisphere around +n, 1 around -n,
+// each projected stereographically onto the unit disc.
 uniform vec3 u_eye;
 uniform mat3 u_frame;        // columns t, b, n
 uniform int u_orthographic;
 uniform float u_ortho_half;  // half width of the orthographic window
 uniform float u_near;
 uniform float u_far;
+uniform int u_hemisphere;    // 1: the map holds stereographic hemispheres, not cube faces
 
 const vec3 FACE_FORWARD[6] = vec3[6](vec3(0, 0, 1), vec3(1, 0, 0), vec3(-1, 0, 0),
                                      vec3(0, 1, 0), vec3(0, -1, 0), vec3(0, 0, -1));
@@ -39,4 +42,23 @@ int face_of(vec3 local) {
     if (a.z >= a.x && a.z >= a.y) return local.z >= 0.0 ? 0 : 5;
     if (a.x >= a.y) return local.x >= 0.0 ? 1 : 2;
     return local.y >= 0.0 ? 3 : 4;
+}
+
+// Coordinates in the frame of hemisphere 'side': the back one is the front one turned half a
+// turn about t, so both stay right-handed.
+vec3 hemisphere_local(vec3 local, int side) {
+    return side == 0 ? local : vec3(local.x, -local.y, -local.z);
+}
+
+// Stereographic projection from the far pole: the zenith maps to the centre of the unit disc,
+// the horizon to its rim; directions below the horizon land outside.
+vec2 stereographic(vec3 v) {
+    float r = length(v);
+    return v.xy / max(r + v.z, 1e-6 * r);
+}
+
+// The direction a point of the unit disc comes from: the inverse of stereographic().
+vec3 inverse_stereographic(vec2 p) {
+    float rho2 = dot(p, p);
+    return vec3(2.0 * p, 1.0 - rho2) / (1.0 + rho2);
 }

@@ -12,33 +12,25 @@ uniform vec3 u_spot_axis;       // direction the spot points to
 uniform float u_spot_cos_half;  // cosine of half the cone angle
 uniform float u_spot_smooth;    // width of the blend band in cosine units
 
-void main() {
-    ivec2 texel = ivec2(gl_FragCoord.xy);
-    vec4 position = texelFetch(u_position, texel, 0);
-    vec4 albedo = texelFetch(u_albedo, texel, 0);
-    if (position.w <= 0.0 || albedo.a <= 0.0) discard;
-    vec3 normal = texelFetch(u_normal, texel, 0).xyz;
-
+vec3 irradiance_at(vec3 point, vec3 normal) {
     vec3 irradiance;
     if (u_light_kind == 2) {
         float cos_r = -dot(normal, u_frame[2]);
-        if (cos_r <= 0.0) discard;
+        if (cos_r <= 0.0) return vec3(0.0);
         irradiance = u_light_value * cos_r;
     } else {
-        vec3 d = position.xyz - u_eye;
+        vec3 d = point - u_eye;
         float dist2 = dot(d, d);
         vec3 dir = d / sqrt(dist2);
         float cos_r = -dot(normal, dir);
-        if (cos_r <= 0.0) discard;
+        if (cos_r <= 0.0) return vec3(0.0);
         float mask = 1.0;
         if (u_light_kind == 1) {
             float c = dot(dir, u_spot_axis);
-            if (c <= u_spot_cos_half) discard;
+            if (c <= u_spot_cos_half) return vec3(0.0);
             if (u_spot_smooth > 0.0) mask = smoothstep(0.0, 1.0, (c - u_spot_cos_half) / u_spot_smooth);
         }
         irradiance = u_light_value * mask * cos_r / dist2;
     }
-    float visible = visible_from_eye(position.xyz, normal);
-    if (visible <= 0.0) discard;
-    deposit(irradiance, albedo.rgb);
+    return irradiance * visible_from_eye(point, normal);
 }

@@ -35,20 +35,12 @@ float polygon_form_factor(vec3 p, vec3 n) {
     return min(abs(sum) / (2.0 * PI), 1.0);
 }
 
-void main() {
-    ivec2 texel = ivec2(gl_FragCoord.xy);
-    vec4 position = texelFetch(u_position, texel, 0);
-    vec4 albedo = texelFetch(u_albedo, texel, 0);
-    if (position.w <= 0.0 || albedo.a <= 0.0) discard;
-    vec3 normal = texelFetch(u_normal, texel, 0).xyz;
-
-    vec3 from_shooter = position.xyz - u_centre;
+vec3 irradiance_at(vec3 point, vec3 normal) {
+    vec3 from_shooter = point - u_centre;
     bool front = dot(from_shooter, u_frame[2]) > 0.0;
     vec3 radiance = front ? u_radiance_front : u_radiance_back;
-    if (dot(radiance, vec3(1.0)) <= 0.0 || dot(normal, from_shooter) >= 0.0) discard;
-
-    float visible = visible_from_eye(position.xyz, normal);
-    if (visible <= 0.0) discard;
-    float form_factor = polygon_form_factor(position.xyz, normal);
-    deposit(PI * radiance * form_factor * visible, albedo.rgb);
+    if (dot(radiance, vec3(1.0)) <= 0.0 || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
+    float visible = visible_from_eye(point, normal);
+    if (visible <= 0.0) return vec3(0.0);
+    return PI * radiance * polygon_form_factor(point, normal) * visible;
 }

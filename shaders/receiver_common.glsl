@@ -1,15 +1,45 @@
-// Receiver texel data shared by the patch and light receiver passes.
+// Receiver pass shared by the patch and light shaders: each defines irradiance_at(), the
+// irradiance a point gets from the current shooter (0 where hidden or facing away).
 uniform sampler2D u_position;
 uniform sampler2D u_normal;
 uniform sampler2D u_albedo;
+uniform sampler2D u_tangent;   // xyz tangent, w subdivision level of the texel
 
 layout(location = 0) out vec4 out_irradiance;  // added to the accumulated irradiance
 layout(location = 1) out vec4 out_unshot;      // added to the unshot radiance
 
 const float PI = 3.14159265358979;
 
-// Writes the irradiance gained by this texel and the reflected radiance it must shoot later.
-void deposit(vec3 irradiance, vec3 albedo) {
+vec3 irradiance_at(vec3 point, vec3 normal);
+
+void main() {
+    ivec2 texel = ivec2(gl_FragCoord.xy);
+    vec4 position = texelFetch(u_position, texel, 0);
+    vec4 albedo = texelFetch(u_albedo, texel, 0);
+    if (position.w <= 0.0 || albedo.a <= 0.0) discard;
+    vec4 normal = texelFetch(u_normal, texel, 0);
+    vec4 tangent = texelFetch(u_tangent, texel, 0);
+    int split = 1 << int(tangent.w + 0.5);
+    vec3 irradiance = vec3(0.0);
+    if (split == 1) {
+        irradiance = irradiance_at(position.xyz, normal.xyz);
+    } else {
+        // A subdivided texel gathers at split x split points spread over the part of the
+        // texel square its surface covers (the whole square inside a chart).
+        float coverage = clamp(position.w / (normal.w * normal.w), 0.0, 1.0);
+        float side = normal.w * sqrt(coverage);
+        vec3 bitangent = cross(normal.xyz, tangent.xyz);
+        for (int j = 0; j < split; ++j) {
+            for (int i = 0; i < split; ++i) {
+                vec2 offset = (vec2(i, j) + 0.5) / float(split) - 0.5;
+                vec3 point = position.xyz + side * (offset.x * tangent.xyz + offset.y * bitangent);
+                irradiance += irradiance_at(point, normal.xyz);
+            }
+        }
+        irradiance /= float(split * split);
+    }
+    if (irradiance.r + irradiance.g + irradiance.b <= 0.0) discard;
+    // The irradiance gained by this texel and the reflected radiance it must shoot later.
     out_irradiance = vec4(irradiance, 0.0);
-    out_unshot = vec4(albedo * irradiance / PI, 0.0);
+    out_unshot = vec4(albedo.rgb * irradiance / PI, 0.0);
 }

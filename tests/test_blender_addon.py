@@ -1,7 +1,9 @@
 """The extension inside Blender (the bpy module, headless): registration, export, bake,
 write-back, the baked-lighting switch, renders alongside Luxel's GL context, the command line."""
+import dataclasses
 import importlib
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -89,6 +91,36 @@ def texels_of(obj):
 
 def run_cli(argv):
     return blender_session.addon().addon.cli.execute(argv)
+
+
+class RecordingLayout:
+    """Stands in for a panel's UILayout: records the properties drawn, in any sub-layout."""
+
+    def __init__(self, drawn=None):
+        self.drawn = [] if drawn is None else drawn
+
+    def column(self, **_):
+        return RecordingLayout(self.drawn)
+
+    row = column
+
+    def prop(self, data, name, **_):
+        self.drawn.append(name)
+
+    def operator(self, *_, **__):
+        pass
+
+    label = operator
+
+
+def drawn_render_settings(scene):
+    """The scene.luxel properties that the render panel and its sub-panels draw."""
+    panels = blender_session.addon().addon.panels
+    layout = RecordingLayout()
+    for panel in (panels.LUXEL_PT_render, panels.LUXEL_PT_render_visibility,
+                  panels.LUXEL_PT_render_subdivision):
+        panel.draw(SimpleNamespace(layout=layout), SimpleNamespace(scene=scene))
+    return layout.drawn
 
 
 # --------------------------------------------------------------------------- tests
@@ -313,6 +345,42 @@ def test_show_baked_lighting_on_then_off_restores_node_trees_exactly():
     assert node_tree_snapshot() == before
 
 
+def test_every_solver_setting_in_the_scene_reaches_the_native_settings():
+    scene = room_scene()
+    non_defaults = {
+        "texel_density": 12.5, "max_atlas_size": 1024, "hemicube_resolution": 64,
+        "shoot_level": 3, "threshold": 0.25, "max_shots": 77, "projection": "NONLINEAR",
+        "neighbour_visibility": False, "subdivision": "ADAPTIVE", "subdivision_level": 3,
+        "subdivision_shadow_min": 0.25, "subdivision_shadow_max": 0.75,
+        "adaptive_shoot_level": True,
+    }
+    native = blender_session.addon().native
+    exposed = {field.name for field in dataclasses.fields(native.Settings)
+               if field.name in scene.luxel.bl_rna.properties}
+    assert exposed == set(non_defaults)
+    properties = scene.luxel.bl_rna.properties
+    assert tuple(properties["projection"].enum_items.keys()) == native.PROJECTIONS
+    assert tuple(properties["subdivision"].enum_items.keys()) == native.SUBDIVISIONS
+    defaults = dataclasses.asdict(native.Settings())
+    assert all(defaults[name] != value for name, value in non_defaults.items())
+    for name, value in non_defaults.items():
+        setattr(scene.luxel, name, value)
+    assert dataclasses.asdict(scene.luxel.solver_settings()) == {**defaults, **non_defaults}
+
+
+def test_render_panel_shows_the_subdivision_settings_that_apply():
+    scene = room_scene()
+    thresholds = {"subdivision_shadow_min", "subdivision_shadow_max"}
+    always = {"projection", "neighbour_visibility", "adaptive_shoot_level", "subdivision"}
+    for subdivision, shown, hidden in (("NONE", set(), thresholds | {"subdivision_level"}),
+                                       ("REGULAR", {"subdivision_level"}, thresholds),
+                                       ("ADAPTIVE", thresholds | {"subdivision_level"}, set())):
+        scene.luxel.subdivision = subdivision
+        drawn = set(drawn_render_settings(scene))
+        assert drawn <= set(scene.luxel.bl_rna.properties.keys())
+        assert always | shown <= drawn and not hidden & drawn, subdivision
+
+
 def test_cli_rejects_a_bad_argument_and_a_scene_without_light(capsys):
     room_scene()
     assert run_cli(["bake", "--shots", "many"]) != 0
@@ -323,6 +391,36 @@ def test_cli_rejects_a_bad_argument_and_a_scene_without_light(capsys):
     assert run_cli(["bake"]) != 0
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1 and "no light" in error[0]
+
+
+def test_cli_rejects_bad_visibility_and_subdivision_options_with_one_line(capsys):
+    scene = room_scene()
+    for argv, option in ((["--subdivision-level", "9"], "--subdivision-level"),
+                         (["--subdivision-level", "0"], "--subdivision-level"),
+                         (["--shadow-range", "0.9", "0.1"], "--shadow-range"),
+                         (["--shadow-range", "0.5", "1.5"], "--shadow-range"),
+                         (["--shadow-range", "0.5"], "--shadow-range"),
+                         (["--subdivision", "FINE"], "--subdivision"),
+                         (["--projection", "SPHERE"], "--projection")):
+        assert run_cli(["bake", *argv]) == 2, argv
+        error = capsys.readouterr().err.strip().splitlines()
+        assert len(error) == 1 and option in error[0], argv
+    assert scene.luxel.subdivision == "NONE" and not scene.luxel.stats.valid
+
+
+def test_cli_applies_the_visibility_and_subdivision_options(capsys):
+    scene = room_scene()
+    assert run_cli(["bake", "--projection", "NONLINEAR", "--no-neighbour-visibility",
+                    "--subdivision", "ADAPTIVE", "--subdivision-level", "1",
+                    "--shadow-range", "0.25", "0.75", "--adaptive-shoot-level",
+                    "--density", "4", "--shots", "5"]) == 0
+    assert "luxel: done" in capsys.readouterr().out
+    settings = scene.luxel
+    assert settings.projection == "NONLINEAR" and not settings.neighbour_visibility
+    assert settings.subdivision == "ADAPTIVE" and settings.subdivision_level == 1
+    assert (settings.subdivision_shadow_min, settings.subdivision_shadow_max) == (0.25, 0.75)
+    assert settings.adaptive_shoot_level and settings.max_shots == 5
+    assert settings.stats.valid and 0 < settings.stats.shots <= 5
 
 
 def test_cli_bake_saves_the_blend_with_packed_lightmaps(tmp_path, capsys):

@@ -6,12 +6,18 @@ import pytest
 
 import analytic
 import scenes
-from native import PointLight, Settings, Solver, SpotLight, SunLight
+from native import PROJECTIONS, PointLight, Settings, Solver, SpotLight, SunLight
 from native.samples import SceneBuilder
 
 
-def bake(scene, ctx, **settings):
-    solver = Solver(scene, Settings(**settings), ctx=ctx)
+@pytest.fixture(params=PROJECTIONS)
+def projection(request):
+    """Every analytic test runs with each visibility projection."""
+    return request.param
+
+
+def bake(scene, ctx, projection, **settings):
+    solver = Solver(scene, Settings(projection=projection, **settings), ctx=ctx)
     try:
         solver.run()
         return solver.result()[0], solver.texel_samples()[0], solver.progress
@@ -26,9 +32,9 @@ def receiver_texels(samples, z=0.0):
     return np.nonzero(on_plane)
 
 
-def test_texel_samples_lie_on_their_surface(ctx, gl_clean):
+def test_texel_samples_lie_on_their_surface(ctx, gl_clean, projection):
     """Every occupied texel samples a point of the receiver square, partial ones included."""
-    _, samples, _ = bake(scenes.parallel_squares((1.0, 1.0, 1.0)), ctx, texel_density=16,
+    _, samples, _ = bake(scenes.parallel_squares((1.0, 1.0, 1.0)), ctx, projection, texel_density=16,
                          max_shots=0)
     rows, cols = receiver_texels(samples)
     position = samples["position"][rows, cols]
@@ -38,10 +44,10 @@ def test_texel_samples_lie_on_their_surface(ctx, gl_clean):
     assert samples["area"][rows, cols].sum() == pytest.approx(1.0, rel=1e-4)
 
 
-def test_parallel_squares_match_corner_formula(ctx, gl_clean):
+def test_parallel_squares_match_corner_formula(ctx, gl_clean, projection):
     radiance = np.array([1.0, 2.0, 0.5])
     albedo = 0.5
-    image, samples, _ = bake(scenes.parallel_squares(radiance, albedo), ctx, texel_density=16,
+    image, samples, _ = bake(scenes.parallel_squares(radiance, albedo), ctx, projection, texel_density=16,
                              threshold=0.001, hemicube_resolution=64)
     rows, cols = receiver_texels(samples)
     expected_f = np.array([analytic.parallel_rectangle_form_factor(x, y, 0, 1, 0, 1, 1.0)
@@ -57,10 +63,10 @@ def test_parallel_squares_match_corner_formula(ctx, gl_clean):
     np.testing.assert_allclose(mean, truth, rtol=0.01)
 
 
-def test_perpendicular_squares_match_common_edge_formula(ctx, gl_clean):
+def test_perpendicular_squares_match_common_edge_formula(ctx, gl_clean, projection):
     radiance = np.array([3.0, 3.0, 3.0])
     albedo = 0.5
-    image, samples, _ = bake(scenes.perpendicular_squares(radiance, albedo), ctx,
+    image, samples, _ = bake(scenes.perpendicular_squares(radiance, albedo), ctx, projection,
                              texel_density=16, threshold=0.001, hemicube_resolution=64)
     rows, cols = receiver_texels(samples)
     area = samples["area"][rows, cols]
@@ -82,9 +88,9 @@ def test_perpendicular_squares_match_common_edge_formula(ctx, gl_clean):
 
 
 @pytest.mark.parametrize("albedo", [0.5, 0.9])
-def test_furnace_converges_to_closed_form(ctx, gl_clean, albedo):
+def test_furnace_converges_to_closed_form(ctx, gl_clean, projection, albedo):
     """Closed cube, uniform emission 1 and albedo rho: reflected radiance rho / (1 - rho)."""
-    image, samples, progress = bake(scenes.furnace_cube(albedo), ctx, texel_density=8,
+    image, samples, progress = bake(scenes.furnace_cube(albedo), ctx, projection, texel_density=8,
                                     shoot_level=2, threshold=0.002, hemicube_resolution=64)
     assert progress.converged
     occupied = image[..., 3] == 1
@@ -94,10 +100,10 @@ def test_furnace_converges_to_closed_form(ctx, gl_clean, albedo):
     assert np.max(np.abs(values / expected - 1)) < 0.01
 
 
-def test_point_light_over_plane_is_cos_over_r_squared(ctx, gl_clean):
+def test_point_light_over_plane_is_cos_over_r_squared(ctx, gl_clean, projection):
     light = PointLight(position=(0.3, -0.2, 1.0), power=100.0, color=(1.0, 0.5, 0.25))
     albedo = 0.5
-    image, samples, _ = bake(scenes.plane(2.0, albedo, [light]), ctx, texel_density=12,
+    image, samples, _ = bake(scenes.plane(2.0, albedo, [light]), ctx, projection, texel_density=12,
                              max_shots=1)
     rows, cols = receiver_texels(samples)
     d = np.asarray(light.position) - samples["position"][rows, cols]
@@ -108,11 +114,11 @@ def test_point_light_over_plane_is_cos_over_r_squared(ctx, gl_clean):
     np.testing.assert_allclose(image[rows, cols, :3], expected, rtol=0.02)
 
 
-def test_spot_light_follows_blender_cone_and_blend(ctx, gl_clean):
+def test_spot_light_follows_blender_cone_and_blend(ctx, gl_clean, projection):
     spot = SpotLight(position=(0.0, 0.0, 1.0), direction=(0.0, 0.0, -1.0), power=50.0,
                      spot_size=math.radians(60), spot_blend=0.3)
     albedo = 0.5
-    image, samples, _ = bake(scenes.plane(3.0, albedo, [spot]), ctx, texel_density=10,
+    image, samples, _ = bake(scenes.plane(3.0, albedo, [spot]), ctx, projection, texel_density=10,
                              max_shots=1)
     rows, cols = receiver_texels(samples)
     d = samples["position"][rows, cols] - np.asarray(spot.position)
@@ -136,7 +142,7 @@ def test_spot_light_follows_blender_cone_and_blend(ctx, gl_clean):
     np.testing.assert_allclose(measured[band_texels], expected[band_texels], rtol=0.15, atol=1e-3)
 
 
-def test_sun_lights_by_cosine_and_casts_a_sharp_shadow(ctx, gl_clean):
+def test_sun_lights_by_cosine_and_casts_a_sharp_shadow(ctx, gl_clean, projection):
     """Sun tilted 30 degrees: lit texels get rho S cos / pi; a square blocker 0.5 m above the
     plane casts its shadow shifted by 0.5 tan(30 degrees)."""
     angle = math.radians(30)
@@ -145,7 +151,7 @@ def test_sun_lights_by_cosine_and_casts_a_sharp_shadow(ctx, gl_clean):
                                   (0.5, 0.5, 0.5))
     builder.quad("blocker", [(-0.25, -0.25, 0.5), (-0.25, 0.25, 0.5), (0.25, 0.25, 0.5),
                              (0.25, -0.25, 0.5)], (0.5, 0.5, 0.5), receive=False)
-    image, samples, _ = bake(builder.build([sun]), ctx, texel_density=16, max_shots=1,
+    image, samples, _ = bake(builder.build([sun]), ctx, projection, texel_density=16, max_shots=1,
                              hemicube_resolution=256)
     rows, cols = receiver_texels(samples)
     position = samples["position"][rows, cols]
@@ -160,7 +166,7 @@ def test_sun_lights_by_cosine_and_casts_a_sharp_shadow(ctx, gl_clean):
     np.testing.assert_allclose(measured[lit], 0.5 * 3.0 * math.cos(angle) / math.pi, rtol=0.01)
 
 
-def test_partly_covered_texels_along_a_diagonal_edge_have_no_dark_rim(ctx, gl_clean):
+def test_partly_covered_texels_along_a_diagonal_edge_have_no_dark_rim(ctx, gl_clean, projection):
     """A right-triangle receiver: texels cut by its hypotenuse sample inside the triangle and
     match the corner formula like interior texels do."""
     from native import Scene
@@ -171,7 +177,7 @@ def test_partly_covered_texels_along_a_diagonal_edge_have_no_dark_rim(ctx, gl_cl
                   emission=np.array([(0,) * 3, (1,) * 3, (1,) * 3]),
                   emission_two_sided=np.array([True, False, False]),
                   object_index=np.array([0, 1, 1]), object_names=["triangle", "emitter"])
-    image, samples, _ = bake(scene, ctx, texel_density=20, threshold=0.001)
+    image, samples, _ = bake(scene, ctx, projection, texel_density=20, threshold=0.001)
     rows, cols = receiver_texels(samples)
     position = samples["position"][rows, cols]
     area = samples["area"][rows, cols]
@@ -185,7 +191,7 @@ def test_partly_covered_texels_along_a_diagonal_edge_have_no_dark_rim(ctx, gl_cl
     assert np.max(np.abs(measured[partial] / expected[partial] - 1)) < 0.03
 
 
-def test_two_sided_emitter_lights_both_sides_one_sided_only_its_front(ctx, gl_clean):
+def test_two_sided_emitter_lights_both_sides_one_sided_only_its_front(ctx, gl_clean, projection):
     """A unit emitter half-way between two receivers 1 m apart: both get rho E F(0.5 m) when
     it emits from both faces (Blender's emission shader), only the one it faces otherwise."""
     albedo = 0.5
@@ -197,7 +203,7 @@ def test_two_sided_emitter_lights_both_sides_one_sided_only_its_front(ctx, gl_cl
                      (albedo,) * 3)
         builder.quad("emitter", [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)], (0.0,) * 3,
                      (2.0,) * 3, two_sided=two_sided)  # faces -z, towards the floor
-        image, samples, _ = bake(builder.build(), ctx, texel_density=12, max_shots=40,
+        image, samples, _ = bake(builder.build(), ctx, projection, texel_density=12, max_shots=40,
                                  threshold=0.0)
         for z, lit in ((-0.5, True), (0.5, two_sided)):
             on_plane = samples["occupied"] & (np.abs(samples["position"][..., 2] - z) < 1e-5)
@@ -211,33 +217,57 @@ def test_two_sided_emitter_lights_both_sides_one_sided_only_its_front(ctx, gl_cl
             assert np.max(np.abs(measured / expected - 1)) < 0.03
 
 
-def test_penumbra_of_an_occluding_plate_is_bracketed_by_exact_visibility(ctx, gl_clean):
-    """A black plate at z = 0.5 covers x < 0.5 between a unit emitter at z = 1 and the
-    receiver. From a receiver point at x0, the emitter is visible for x > 1 - x0 exactly;
-    shooting from texel centres moves that edge by at most half an emitter texel, so each
-    receiver texel lies between the exact form factors with the edge shifted by that much."""
-    density = 16
-    albedo = 0.5
+def penumbra_scene():
+    """A black plate at z = 0.5 covering x < 0.5 between a unit emitter at z = 1 and the unit
+    receiver square at z = 0."""
     builder = SceneBuilder()
-    builder.quad("receiver", scenes.RECEIVER, (albedo,) * 3)
+    builder.quad("receiver", scenes.RECEIVER, (0.5,) * 3)
     builder.quad("emitter", scenes.CEILING, (0.0,) * 3, (1.0,) * 3, two_sided=False)
     builder.quad("plate", [(-1, -1, 0.5), (-1, 2, 0.5), (0.5, 2, 0.5), (0.5, -1, 0.5)],
                  (0.0,) * 3, receive=False)
-    image, samples, _ = bake(builder.build(), ctx, texel_density=density, shoot_level=0,
-                             hemicube_resolution=512, threshold=0.0, max_shots=16 * 16)
+    return builder.build()
+
+
+def penumbra_bracket(samples, density, albedo=0.5):
+    """Per receiver texel: exact first-bounce value and the bracket it must lie in. From a
+    receiver point at x0 the emitter is visible for x > 1 - x0 exactly; shooting from texel
+    centres moves that edge by at most half an emitter texel."""
     rows, cols = receiver_texels(samples)
     slack = 0.5 / density + 0.01
-    within = 0
-    for (x, y, _), value in zip(samples["position"][rows, cols], image[rows, cols, 0]):
+    exact, low, high = [], [], []
+    for x, y, _ in samples["position"][rows, cols]:
         edge = 1.0 - x
-        low = analytic.parallel_rectangle_form_factor(x, y, min(max(edge + slack, 0), 1), 1, 0, 1, 1)
-        high = analytic.parallel_rectangle_form_factor(x, y, min(max(edge - slack, 0), 1), 1, 0, 1, 1)
-        assert albedo * low - 1e-6 <= value <= albedo * high + 1e-6, (x, y, value, low, high)
-        within += 1
-    assert within == 16 * 16
+        for values, shift in ((exact, 0.0), (low, slack), (high, -slack)):
+            values.append(albedo * analytic.parallel_rectangle_form_factor(
+                x, y, min(max(edge + shift, 0), 1), 1, 0, 1, 1))
+    return (rows, cols), np.array(exact), np.array(low), np.array(high)
 
 
-def test_curved_surface_first_bounce_matches_lambert_on_every_facet(ctx, gl_clean):
+def test_penumbra_of_an_occluding_plate_is_bracketed_by_exact_visibility(ctx, gl_clean,
+                                                                        projection):
+    """Every receiver texel lies within the bracket of exact visibility. The per-vertex
+    hemisphere projection draws the plate's long edges straight where they are arcs (the
+    paper's Figure 5); its remedy, subdivision, tessellates the casters: then its error may
+    be up to twice the hemicube's."""
+    density = 16
+    settings = dict(texel_density=density, shoot_level=0, hemicube_resolution=512,
+                    threshold=0.0, max_shots=16 * 16)
+    subdivision = dict(subdivision="ADAPTIVE", subdivision_level=2)
+    image, samples, _ = bake(penumbra_scene(), ctx, projection, **settings,
+                             **(subdivision if projection == "HEMISPHERE" else {}))
+    texels, exact, low, high = penumbra_bracket(samples, density)
+    value = image[texels][:, 0]
+    assert len(value) == 16 * 16
+    if projection != "HEMISPHERE":
+        assert np.all((low - 1e-6 <= value) & (value <= high + 1e-6))
+        return
+    cube, cube_samples, _ = bake(penumbra_scene(), ctx, "HEMICUBE", **settings)
+    cube_error = np.sqrt(np.mean((cube[receiver_texels(cube_samples)][:, 0] - exact) ** 2))
+    error = np.sqrt(np.mean((value - exact) ** 2))
+    assert error <= 2.0 * cube_error
+
+
+def test_curved_surface_first_bounce_matches_lambert_on_every_facet(ctx, gl_clean, projection):
     """Inside a faceted sphere (a convex polyhedron: every facet sees every other unoccluded)
     the first bounce from the emitting cap at a point is rho * E * sum of Lambert's formula
     over the emitting facets. Albedo 1e-3 keeps later bounces below 0.1 %. Charts here fold
@@ -246,7 +276,7 @@ def test_curved_surface_first_bounce_matches_lambert_on_every_facet(ctx, gl_clea
     -0.2 %, 96.7 % of texels within 3 %, worst -15 %, all at ring folds next to emitters)."""
     albedo, radiance = 1e-3, 4.0
     scene = scenes.inward_sphere(albedo=albedo, radiance=radiance)
-    image, samples, progress = bake(scene, ctx, texel_density=16, shoot_level=1,
+    image, samples, progress = bake(scene, ctx, projection, texel_density=16, shoot_level=1,
                                     threshold=5e-4, hemicube_resolution=256)
     assert progress.converged
     occupied = samples["occupied"]
@@ -261,14 +291,14 @@ def test_curved_surface_first_bounce_matches_lambert_on_every_facet(ctx, gl_clea
     assert np.all(np.abs(error) < 0.25)
 
 
-def test_uniform_sky_lights_an_open_plane_by_rho_times_radiance(ctx, gl_clean):
+def test_uniform_sky_lights_an_open_plane_by_rho_times_radiance(ctx, gl_clean, projection):
     """A plane under a uniform sky of radiance L receives pi L: reflected rho L. A wall
     standing on it hides the part of the sky given by Lambert's form factor to the wall."""
     sky = np.array([0.4, 0.8, 1.2])
     builder = SceneBuilder().quad("plane", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)],
                                   (0.5, 0.5, 0.5))
     open_scene = builder.build(sky=sky)
-    image, samples, _ = bake(open_scene, ctx, texel_density=8, max_shots=300,
+    image, samples, _ = bake(open_scene, ctx, projection, texel_density=8, max_shots=300,
                              hemicube_resolution=64)
     rows, cols = receiver_texels(samples)
     np.testing.assert_allclose(image[rows, cols, :3], np.broadcast_to(0.5 * sky, (len(rows), 3)),
@@ -279,7 +309,7 @@ def test_uniform_sky_lights_an_open_plane_by_rho_times_radiance(ctx, gl_clean):
               .quad("plane", [(0, -1, 0), (2, -1, 0), (2, 1, 0), (0, 1, 0)], (0.5,) * 3)
               .quad("wall", wall, (0.0,) * 3, receive=False)
               .build(sky=sky))
-    image, samples, _ = bake(walled, ctx, texel_density=8, max_shots=300,
+    image, samples, _ = bake(walled, ctx, projection, texel_density=8, max_shots=300,
                              hemicube_resolution=256)
     rows, cols = receiver_texels(samples)
     points = samples["position"][rows, cols]
@@ -294,12 +324,12 @@ def test_uniform_sky_lights_an_open_plane_by_rho_times_radiance(ctx, gl_clean):
     np.testing.assert_allclose(measured.mean(axis=0), expected.mean(axis=0), rtol=0.01)
 
 
-def test_non_occluding_emitter_lights_without_casting_shadows(ctx, gl_clean):
+def test_non_occluding_emitter_lights_without_casting_shadows(ctx, gl_clean, projection):
     """Blender area lights emit but block nothing: a second copy of the emitter, non-occluding,
     between the first emitter and the receiver changes nothing but adds its own light."""
     radiance = np.array([1.0, 1.0, 1.0])
     base = scenes.parallel_squares(radiance)
-    reference, samples, _ = bake(base, ctx, texel_density=8, threshold=0.001,
+    reference, samples, _ = bake(base, ctx, projection, texel_density=8, threshold=0.001,
                                  hemicube_resolution=64, max_shots=2000)
     builder = (SceneBuilder()
                .quad("receiver", scenes.RECEIVER, (0.5,) * 3)
@@ -307,7 +337,7 @@ def test_non_occluding_emitter_lights_without_casting_shadows(ctx, gl_clean):
                .quad("area light", [(0, 0, 0.999), (0, 1, 0.999), (1, 1, 0.999), (1, 0, 0.999)],
                      (0.0,) * 3, radiance, two_sided=False, receive=False, occlude=False))
     scene = builder.build()
-    doubled, samples2, _ = bake(scene, ctx, texel_density=8, threshold=0.001,
+    doubled, samples2, _ = bake(scene, ctx, projection, texel_density=8, threshold=0.001,
                                 hemicube_resolution=64, max_shots=2000)
     rows, cols = receiver_texels(samples)
     rows2, cols2 = receiver_texels(samples2)

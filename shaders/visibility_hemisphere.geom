@@ -1,0 +1,38 @@
+#version 410
+// Routes each triangle, projected by the vertex shader, to the hemisphere layers drawn
+// (u_face_count: 1 for a one-sided shooter, 2 for a two-sided one or a point light), clipped to
+// the hemisphere.
+layout(triangles, invocations = 2) in;
+layout(triangle_strip, max_vertices = 3) out;
+
+uniform int u_face_count;
+
+in vec4 v_front[];
+in vec4 v_back[];
+in float v_height_front[];
+in float v_height_back[];
+in float v_distance[];
+in vec3 v_local[];
+
+#include "projection.glsl"
+flat out vec4 g_plane;  // the triangle's plane in the hemisphere's frame: normal, offset
+
+void main() {
+    int side = gl_InvocationID;
+    if (side >= u_face_count) return;
+    // A triangle whose plane passes through the eye covers no solid angle, but its corners
+    // would span a chord of the disc.
+    vec3 n = cross(v_local[1] - v_local[0], v_local[2] - v_local[0]);
+    float size = max(v_distance[0], max(v_distance[1], v_distance[2]));
+    if (abs(dot(n, v_local[0])) <= 1e-6 * length(n) * size) return;
+    vec3 h0 = hemisphere_local(v_local[0], side);
+    vec3 plane_normal = hemisphere_local(n, side);
+    for (int i = 0; i < 3; ++i) {
+        g_plane = vec4(plane_normal, dot(plane_normal, h0));
+        gl_Position = side == 0 ? v_front[i] : v_back[i];
+        gl_ClipDistance[0] = side == 0 ? v_height_front[i] : v_height_back[i];
+        gl_Layer = side;
+        EmitVertex();
+    }
+    EndPrimitive();
+}
