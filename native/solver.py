@@ -296,10 +296,6 @@ class Solver:
         self._centre = 0.5 * (lo + hi)
         self._radius = 0.5 * float(np.linalg.norm(hi - lo)) * 1.01 + 1e-6
         self._epsilon = 1e-5 * self._radius
-        # Subdivision also tessellates the casters of the per-vertex projection, whose straight
-        # edges would otherwise misplace shadow boundaries (the paper's Figure 5).
-        self._caster_split = (1 << settings.subdivision_level
-                              if settings.subdivision != "NONE" else 1)
         # Hemisphere maps are twice the hemicube's side: the same texels per radian at the zenith.
         self._map_size = settings.hemicube_resolution * (1 if settings.projection == "HEMICUBE" else 2)
 
@@ -358,7 +354,17 @@ class Solver:
         self._scene_vbo = gl.buffer(positions.tobytes())
         self._visibility_vaos = {
             name: gl.vertex_array(self._programs[name], [(self._scene_vbo, "3f", "in_position")])
-            for name in ("visibility", "hemisphere", "hemisphere_tessellated", "nonlinear")}
+            for name in ("visibility", "hemisphere", "nonlinear")}
+        # Caster subdivision level per occluder corner, for the tessellating projection.
+        self._occluder_centres = positions.mean(axis=1).astype(np.float64)
+        self._occluder_radii = np.linalg.norm(positions - self._occluder_centres[:, None],
+                                              axis=2).max(axis=1)
+        initial = settings.subdivision_level if settings.subdivision == "REGULAR" else 0
+        self._caster_levels = np.full(len(positions), initial, dtype=np.int32)
+        self._caster_vbo = gl.buffer(np.repeat(self._caster_levels, 3).astype("f4").tobytes())
+        self._visibility_vaos["hemisphere_tessellated"] = gl.vertex_array(
+            self._programs["hemisphere_tessellated"],
+            [(self._scene_vbo, "3f", "in_position"), (self._caster_vbo, "1f", "in_caster_level")])
         self._triangle_vertices = positions.shape[0] * 3
         block = 1 << (settings.shoot_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
                                               else 0))
@@ -393,8 +399,7 @@ class Solver:
             "visibility": {"u_ortho_half": self._radius},
             "nonlinear": {"u_resolution": float(self._map_size)},
             "hemisphere": {"u_resolution": float(self._map_size)},
-            "hemisphere_tessellated": {"u_resolution": float(self._map_size),
-                                       "u_max_split": self._caster_split},
+            "hemisphere_tessellated": {"u_resolution": float(self._map_size)},
             "patch": receivers,
             "light": receivers,
             "clear": {"u_atlas_size": size},
@@ -615,6 +620,34 @@ class Solver:
                     & (share <= settings.subdivision_shadow_max))
         for level in range(1, settings.subdivision_level + 1):
             self._raise_levels(slots[shadowed & (self._slot_levels[slots] == level - 1)], level)
+        if settings.projection == "HEMISPHERE" and shadowed.any():
+            self._subdivide_casters(slots[shadowed])
+
+    def _subdivide_casters(self, receiver_slots):
+        """Raise the casters of the subdivided receivers' shadows to the receivers' level: the
+        occluders whose bounding spheres meet the cone from the eye to a receiver's bounding
+        sphere, in front of it."""
+        eye = self._view[0]
+        if self._view[2]:  # the sun: a cylinder along its direction, from far behind
+            eye = self._view[0] - self._view[1][:, 2] * 4.0 * self._radius
+        corners = self._slot_corners[receiver_slots]
+        centres = corners.mean(axis=1)
+        radii = np.linalg.norm(corners - centres[:, None], axis=2).max(axis=1)
+        levels = self._slot_levels[receiver_slots]
+        axis = centres - eye
+        length = np.linalg.norm(axis, axis=1)
+        axis /= np.maximum(length, 1e-30)[:, None]
+        to_caster = self._occluder_centres[None, :, :] - eye                    # (1, O, 3)
+        along = (to_caster * axis[:, None, :]).sum(axis=2)                       # (R, O)
+        across = np.linalg.norm(to_caster - along[..., None] * axis[:, None, :], axis=2)
+        cone = radii[:, None] * np.clip(along, 0.0, None) / np.maximum(length, 1e-30)[:, None]
+        meets = ((along + self._occluder_radii > 0.0) & (along - self._occluder_radii < length[:, None])
+                 & (across <= cone + self._occluder_radii))
+        wanted = np.max(np.where(meets, levels[:, None], 0), axis=0)
+        raised = wanted > self._caster_levels
+        if raised.any():
+            self._caster_levels = np.maximum(self._caster_levels, wanted)
+            self._caster_vbo.write(np.repeat(self._caster_levels, 3).astype("f4").tobytes())
 
     def _count_shadowed(self, slots, queries):
         """(lit, shadowed) texel counts of each triangle in ``slots``, by occlusion queries."""
@@ -807,7 +840,9 @@ class Solver:
         if hemisphere and self.settings.projection == "NONLINEAR":
             name = "nonlinear"
         elif hemisphere:
-            name = "hemisphere_tessellated" if self._caster_split > 1 else "hemisphere"
+            # Subdivision also tessellates casters: the per-vertex projection draws their
+            # edges straight, misplacing shadow boundaries (the paper's Figure 5).
+            name = "hemisphere_tessellated" if self.settings.subdivision != "NONE" else "hemisphere"
         program = self._programs[name]
         self._view_uniforms(program, eye, frame, orthographic)
         _set(program, "u_face_count", (2 if faces == 6 else 1) if hemisphere else faces)

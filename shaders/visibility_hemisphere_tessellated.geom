@@ -1,16 +1,17 @@
 #version 410
 // The stereographic projection with the casters tessellated on the fly (the paper's proposed
-// remedy for its Figure 5): each triangle becomes n x n sub-triangles, n growing with the angle
-// its longest edge spans, up to u_max_split, so its straight edges in the map follow the true
-// arcs closely. Each sub-vertex is projected as the vertex shader projects the corners.
+// remedy for its Figure 5): a caster at subdivision level k becomes n x n sub-triangles, n
+// growing with the angle its longest edge spans, up to 2^k, so its straight edges in the map
+// follow the true arcs closely. Each sub-vertex is projected as the vertex shader projects
+// the corners.
 layout(triangles, invocations = 2) in;
 layout(triangle_strip, max_vertices = 80) out;   // rows of strips: n^2 + 2n for n = 8
 
 uniform int u_face_count;
-uniform int u_max_split;   // 1..8
 
 in vec3 v_local[];
 in float v_distance[];
+in float v_caster_level[];
 flat out vec4 g_plane;  // the triangle's plane in the hemisphere's frame: normal, offset
 
 #include "projection.glsl"
@@ -39,7 +40,8 @@ void main() {
     if (abs(dot(n, c0)) <= 1e-6 * length(n) * size) return;  // edge-on: no solid angle
     if (min(v_distance[0], min(v_distance[1], v_distance[2])) <= 0.0) return;
     float widest = max(edge_angle(c0, c1), max(edge_angle(c1, c2), edge_angle(c2, c0)));
-    int split = clamp(int(ceil(widest / MAX_SUB_EDGE_ANGLE)), 1, u_max_split);
+    int split = clamp(int(ceil(widest / MAX_SUB_EDGE_ANGLE)), 1,
+                      1 << int(v_caster_level[0] + 0.5));
     vec3 plane_normal = hemisphere_local(n, side);
     vec4 plane = vec4(plane_normal, dot(plane_normal, hemisphere_local(c0, side)));
     vec3 du = (c1 - c0) / float(split), dv = (c2 - c0) / float(split);
