@@ -61,7 +61,7 @@ class Settings:
     # 2008: exact spherical triangles). The hemisphere maps are 2 * hemicube_resolution wide,
     # which samples the zenith as finely as the hemicube does.
     projection: str = "HEMICUBE"
-    neighbour_visibility: bool = True  # visible when any of the 3x3 map texels sees it (Sec. 5.2)
+    neighbour_visibility: bool = True  # share of the 3x3 map texels seeing a receiver (Sec. 5.2)
     # Receiver refinement: NONE, ADAPTIVE (triangles whose shadowed share of texels lies in
     # [subdivision_shadow_min, subdivision_shadow_max], found by occlusion queries, and the
     # casters of their shadows) or REGULAR (every triangle), up to subdivision_level: a texel

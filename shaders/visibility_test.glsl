@@ -2,11 +2,44 @@
 uniform sampler2DArray u_visibility;
 uniform float u_resolution;
 uniform float u_epsilon;             // absolute depth tolerance, scaled to the scene
-uniform int u_neighbour_visibility;  // the paper's fix (Sec. 5.2): any of the 3x3 texels may see it
+uniform int u_neighbour_visibility;  // the paper's fix (Sec. 5.2): the 3x3 texels around vote
 
-// 1 when 'world' (a receiver with normal 'normal') is the nearest surface seen from the eye.
+// The ray the map sampled at a texel's centre, in the eye's frame: origin (non-zero only for
+// the sun's parallel rays) and unit direction.
+void texel_ray(ivec3 texel, out vec3 origin, out vec3 direction) {
+    vec2 p = (vec2(texel.xy) + 0.5) / u_resolution * 2.0 - 1.0;
+    origin = vec3(0.0);
+    if (u_orthographic != 0) {
+        origin = vec3(p * u_ortho_half, 0.0);
+        direction = vec3(0.0, 0.0, 1.0);
+    } else if (u_hemisphere != 0) {
+        direction = hemisphere_local(inverse_stereographic(p), texel.z);
+    } else {
+        direction = normalize(FACE_RIGHT[texel.z] * p.x + FACE_UP[texel.z] * p.y
+                              + FACE_FORWARD[texel.z]);
+    }
+}
+
+// Whether the map texel lets the receiver (local point, local normal, distance 'own') be
+// seen. Either its own distance is within the slope-scaled 'tolerance' of the stored one, or
+// the texel's centre ray meets the receiver's plane no farther than the stored distance:
+// a receiver seen at a grazing angle then never shadows itself, however steep.
+bool texel_sees(ivec3 texel, vec3 point, vec3 normal, float own, float tolerance) {
+    float stored = texelFetch(u_visibility, texel, 0).r;
+    if (own <= stored + tolerance) return true;
+    vec3 origin, direction;
+    texel_ray(texel, origin, direction);
+    float facing = dot(normal, direction);
+    if (facing == 0.0) return false;
+    float along = dot(normal, point - origin) / facing;
+    return along > 0.0 && along <= stored + u_epsilon;
+}
+
+// How much of 'world' (a receiver with normal 'normal') the eye sees: 1 when it is the nearest
+// surface in its direction.
 float visible_from_eye(vec3 world, vec3 normal) {
     vec3 local = to_local(world);
+    vec3 local_normal = transpose(u_frame) * normal;
     float own = view_distance(local);
     int last = int(u_resolution) - 1;
     ivec3 texel;
@@ -26,21 +59,23 @@ float visible_from_eye(vec3 world, vec3 normal) {
         footprint = u_orthographic != 0 ? 2.0 * u_ortho_half / u_resolution
                                         : own * 2.0 / u_resolution;
     }
-    float stored = texelFetch(u_visibility, texel, 0).r;
-    if (u_neighbour_visibility != 0) {
-        // Glancing silhouettes: the receiver may fall on the occluder's side of a texel edge.
-        for (int j = -1; j <= 1; ++j) {
-            for (int i = -1; i <= 1; ++i) {
-                ivec2 n = clamp(texel.xy + ivec2(i, j), ivec2(0), ivec2(last));
-                stored = max(stored, texelFetch(u_visibility, ivec3(n, texel.z), 0).r);
-            }
-        }
-    }
     // Slope-scaled tolerance: across one visibility texel a surface seen at a grazing angle
     // changes its distance by about texel footprint * tan(angle).
     vec3 to_eye = u_orthographic != 0 ? -(u_frame[2]) : -normalize(u_frame * local);
     float cos_incidence = clamp(abs(dot(normal, to_eye)), 0.02, 1.0);
     float tan_incidence = sqrt(1.0 - cos_incidence * cos_incidence) / cos_incidence;
     float tolerance = u_epsilon + footprint * min(tan_incidence, 8.0) * 1.5;
-    return own <= stored + tolerance ? 1.0 : 0.0;
+    if (texel_sees(texel, local, local_normal, own, tolerance)) return 1.0;
+    if (u_neighbour_visibility == 0) return 0.0;
+    // A receiver whose own texel fails may be at a glancing silhouette, the occluder's edge
+    // covering the texel's centre but not the receiver: it gets the share of the 3x3 texels
+    // around that see it.
+    float seen = 0.0;
+    for (int j = -1; j <= 1; ++j) {
+        for (int i = -1; i <= 1; ++i) {
+            ivec3 n = ivec3(clamp(texel.xy + ivec2(i, j), ivec2(0), ivec2(last)), texel.z);
+            seen += texel_sees(n, local, local_normal, own, tolerance) ? 1.0 : 0.0;
+        }
+    }
+    return seen / 9.0;
 }
