@@ -405,7 +405,7 @@ class Solver:
             "clear": {"u_atlas_size": size},
             "resolve": {"u_position": 0, "u_albedo": 1, "u_irradiance": 2},
             "count": {**receivers, "u_atlas_size": size},
-            "level": {"u_atlas_size": size},
+            "level": {**receivers, "u_atlas_size": size},
             "dilate": {"u_source": 0},
         }
         for name, uniforms in constants.items():
@@ -566,14 +566,19 @@ class Solver:
                                         [_buffer_content(self._programs[name], vbo, RASTER_LAYOUT)])
             for name in ("count", "level")}
 
-    def _raise_levels(self, slots, level):
-        """Subdivide the triangles in ``slots`` to ``level``: their texels gather light at
-        4^level points from now on."""
+    def _raise_levels(self, slots, level, boundary_only=False):
+        """Subdivide the triangles in ``slots`` to ``level``: their texels (only those on the
+        current shot's shadow boundary with ``boundary_only``) gather light at 4^level points
+        from now on."""
         if len(slots) == 0:
             return
         self._slot_levels[slots] = np.maximum(self._slot_levels[slots], level)
         program = self._programs["level"]
         _set(program, "u_level", float(level))
+        _set(program, "u_boundary_only", int(boundary_only))
+        if boundary_only:
+            self._view_uniforms(program, *self._view)
+            self._visibility.use(location=0)
         ctx = self.ctx
         ctx.enable(moderngl.BLEND)
         ctx.blend_equation = moderngl.MAX
@@ -583,6 +588,8 @@ class Solver:
             page = self._pages[page_index]
             page.level_only.color_mask = (False, False, False, True)  # applied by use()
             page.level_only.use()
+            page.textures["position"].use(location=1)
+            page.textures["normal"].use(location=2)
             for first, count in _runs(slots[self._slot_pages[slots] == page_index]):
                 vao.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * first)
             page.level_only.color_mask = (True, True, True, True)
@@ -590,12 +597,12 @@ class Solver:
         ctx.disable(moderngl.BLEND)
 
     def _subdivide_shadowed(self, clip_below):
-        """Adaptive subdivision after the visibility map is drawn: occlusion queries count each
-        candidate triangle's lit and shadowed texels; a triangle whose shadowed share lies
-        between the thresholds goes one level finer."""
+        """Adaptive subdivision after the visibility map is drawn: occlusion queries count the
+        lit and shadowed texels of each receiving triangle facing the shooter; a triangle whose
+        shadowed share lies between the thresholds is refined along the shadow boundary."""
         settings = self.settings
         eye, frame, orthographic = self._view
-        candidates = self._slot_receives & (self._slot_levels < settings.subdivision_level)
+        candidates = self._slot_receives.copy()
         if orthographic:
             candidates &= self._slot_normals @ -frame[:, 2] > 0.0
         else:
@@ -618,8 +625,12 @@ class Solver:
         share = np.divide(counts[:, 1], looked, out=np.zeros(len(slots)), where=looked > 0)
         shadowed = ((looked > 0) & (share >= settings.subdivision_shadow_min)
                     & (share <= settings.subdivision_shadow_max))
+        # Each time a triangle shows a shadow boundary it goes one level finer (up to the
+        # maximum), and the texels on this shot's boundary take that level.
+        next_level = np.minimum(self._slot_levels[slots] + 1, settings.subdivision_level)
         for level in range(1, settings.subdivision_level + 1):
-            self._raise_levels(slots[shadowed & (self._slot_levels[slots] == level - 1)], level)
+            self._raise_levels(slots[shadowed & (next_level == level)], level,
+                               boundary_only=True)
         if settings.projection == "HEMISPHERE" and shadowed.any():
             self._subdivide_casters(slots[shadowed])
 
@@ -670,11 +681,17 @@ class Solver:
         return np.array([query.samples for query in queries[:index]],
                         dtype=np.float64).reshape(-1, 2)
 
-    @property
-    def subdivided_triangle_share(self):
-        """Share of the receiving triangles that are subdivided (any level)."""
-        receiving = self._slot_receives
-        return float(np.mean(self._slot_levels[receiving] > 0)) if receiving.any() else 0.0
+    def subdivided_texel_share(self):
+        """Share of the receiving texels that are subdivided (gather at more than one point)."""
+        with using(self.ctx):
+            subdivided = occupied = 0
+            for page in self._pages:
+                receives = (self._read(page.textures["position"])[..., 3] > 0) & (
+                    self._read(page.textures["albedo"])[..., 3] > 0)
+                levels = self._read(page.textures["tangent"])[..., 3]
+                subdivided += int(np.count_nonzero(receives & (levels > 0)))
+                occupied += int(np.count_nonzero(receives))
+            return subdivided / max(occupied, 1)
 
     def _measure_emission(self):
         """Emitted power as the texels hold it (the unshot maps start as the emission, with
