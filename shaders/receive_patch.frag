@@ -37,7 +37,11 @@ float polygon_form_factor(vec3 p, vec3 n) {
 
 vec3 irradiance_at(vec3 point, vec3 normal) {
     vec3 from_shooter = point - u_centre;
-    bool front = dot(from_shooter, u_frame[2]) > 0.0;
+    float height = dot(from_shooter, u_frame[2]);
+    // The shooter's own plane gets nothing: Lambert's formula jumps to 1 at a point inside a
+    // coplanar polygon, and rounding puts such points on either side.
+    if (abs(height) <= u_epsilon) return vec3(0.0);
+    bool front = height > 0.0;
     vec3 radiance = front ? u_radiance_front : u_radiance_back;
     if (dot(radiance, vec3(1.0)) <= 0.0 || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
     float visible = visible_from_eye(point, normal);
