@@ -25,9 +25,12 @@ def lit_cornell_box():
     return scene
 
 
-def test_ledger_balances_and_unshot_never_grows(ctx, gl_clean):
+@pytest.mark.parametrize("projection, subdivision", [
+    ("HEMICUBE", "NONE"), ("HEMISPHERE", "ADAPTIVE"), ("NONLINEAR", "REGULAR")])
+def test_ledger_balances_and_unshot_never_grows(ctx, gl_clean, projection, subdivision):
     solver = Solver(lit_cornell_box(), Settings(texel_density=25, hemicube_resolution=32,
-                                                max_shots=60), ctx=ctx)
+                                                max_shots=60, projection=projection,
+                                                subdivision=subdivision), ctx=ctx)
     try:
         previous_unshot = np.inf
         previous_absorbed = np.zeros(3)
