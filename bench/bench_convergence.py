@@ -7,7 +7,7 @@ import argparse
 import time
 from pathlib import Path
 
-from common import save_results  # also puts the repository on sys.path
+from common import device_name, save_results  # also puts the repository on sys.path
 from native import Settings, Solver, create_context
 from native.samples import cornell_box
 
@@ -24,7 +24,7 @@ def main():
 
     scene = cornell_box()
     ctx = create_context()
-    device = ctx.info["GL_RENDERER"]
+    device = device_name(ctx)
     print(f"device: {device}")
     print(f"{'level':>6} {'texels':>8} {'shots':>7} {'seconds':>8} {'unshot':>8}")
     runs = []

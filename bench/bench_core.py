@@ -9,7 +9,7 @@ import argparse
 import time
 from pathlib import Path
 
-from common import save_results  # also puts the repository on sys.path
+from common import device_name, save_results  # also puts the repository on sys.path
 from native import Settings, Solver, create_context
 from native.gpu import using
 from native.samples import cornell_box
@@ -50,7 +50,7 @@ def main():
 
     scene = cornell_box()
     ctx = create_context()
-    device = f"{ctx.info['GL_RENDERER']} / {ctx.info['GL_VERSION']}"
+    device = device_name(ctx)
     print(f"device: {device}")
     header = ("texels", "pages") + PHASES + ("profiled", "total", "shots/s")
     print(" ".join(f"{h:>11}" for h in header))

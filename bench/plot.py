@@ -1,7 +1,9 @@
-"""Plots for BENCHMARKS.md from bench/results/*.json.
+"""Plots for BENCHMARKS.md from bench/results/*.json, and the paper's Table 2 in Markdown.
 
-    python bench/plot.py        # writes bench/results/core-breakdown.png
+    python bench/plot.py        # every plot: bench/results/*.png
+    python bench/plot.py --table2 bench/results/projections-llvmpipe.json   # prints Markdown
 """
+import argparse
 import json
 from pathlib import Path
 
@@ -12,6 +14,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 PHASES = ("preprocess", "selection", "visibility", "receivers", "postprocess")
+PROJECTION_NAMES = {"HEMICUBE": "hemicube", "HEMISPHERE": "hemisphere",
+                    "NONLINEAR": "non-linear hemisphere"}
+SUBDIVISION_NAMES = {"NONE": "no", "ADAPTIVE": "adapt", "REGULAR": "reg"}   # as in Table 2
+
+
+def short_device(device):
+    return device.split("/")[0].replace("NVIDIA ", "").split("(")[0].strip()
 
 
 def breakdown():
@@ -41,7 +50,7 @@ def convergence():
         return
     figure, (by_shots, by_seconds) = plt.subplots(1, 2, figsize=(11, 4.2))
     for run in runs:
-        device = run["device"].split("/")[0].replace("NVIDIA ", "").split("(")[0].strip()
+        device = short_device(run["device"])
         for entry in run["runs"]:
             shots, seconds, unshot = zip(*entry["curve"])
             label = f"{device}, {entry['texels'] / 1000:.0f} k texels, level {entry['level']}"
@@ -59,6 +68,119 @@ def convergence():
     figure.savefig(RESULTS / "convergence.png", dpi=110)
 
 
+def row_label(row):
+    return f"{SUBDIVISION_NAMES[row['subdivision']]} {row['level']}/{row['size']}"
+
+
+def projections():
+    """Table 2 as a figure: RMS against time for every row and hemisphere projection, one panel
+    per scene; a second line of panels against Cycles when the run had it."""
+    for path in sorted(RESULTS.glob("projections-*.json")):
+        run = json.loads(path.read_text())
+        scenes = run["scenes"]
+        references = [("RMS against the hemicube", "rms", ("HEMISPHERE", "NONLINEAR"))]
+        if run["cycles"]:
+            references.append(("RMS against Cycles", "cycles_rms",
+                               ("HEMICUBE", "HEMISPHERE", "NONLINEAR")))
+        figure, axes = plt.subplots(len(references), len(scenes), squeeze=False,
+                                    figsize=(6.0 * len(scenes), 4.6 * len(references)))
+        markers = {"HEMICUBE": "s", "HEMISPHERE": "o", "NONLINEAR": "^"}
+        for column, (name, scene) in enumerate(scenes.items()):
+            for line, (ylabel, key, projections_shown) in enumerate(references):
+                axis = axes[line][column]
+                for index, row in enumerate(scene["rows"]):
+                    colour = f"C{index}"
+                    for projection in projections_shown:
+                        entry = row["runs"][projection]
+                        axis.scatter(entry["seconds"], entry[key], color=colour,
+                                     marker=markers[projection],
+                                     label=row_label(row) if projection == projections_shown[0]
+                                     else None)
+                for projection in projections_shown:   # marker legend entries
+                    axis.scatter([], [], color="black", marker=markers[projection],
+                                 label=PROJECTION_NAMES[projection])
+                axis.set_xscale("log")
+                axis.set_yscale("log", nonpositive="mask")
+                axis.set_xlabel("seconds to the threshold (create, shoot, read back)")
+                axis.set_ylabel(ylabel)
+                axis.set_title(f"{name} (type level/size)", fontsize=9)
+                axis.grid(True, which="both", alpha=0.3)
+                axis.legend(fontsize=7, ncol=2)
+        figure.suptitle(f"{short_device(run['device'])}: Table 2, unshot threshold "
+                        f"{run['threshold']}, sizes x {run['size_scale']}", fontsize=10)
+        figure.tight_layout()
+        figure.savefig(RESULTS / f"{path.stem}.png", dpi=110)
+
+
+def projection_convergence():
+    """Figure 6: unshot fraction against shots, per projection (and device)."""
+    runs = [json.loads(path.read_text())
+            for path in sorted(RESULTS.glob("projection-convergence-*.json"))]
+    if not runs:
+        return
+    figure, axis = plt.subplots(figsize=(7, 4.4))
+    for run in runs:
+        for entry in run["runs"]:
+            label = (f"{short_device(run['device'])}, {run['scene']}, "
+                     f"{PROJECTION_NAMES[entry['projection']]}: {entry['shots']} shots, "
+                     f"{entry['seconds']:.1f} s")
+            axis.plot(range(len(entry["unshot"])), entry["unshot"], label=label)
+    axis.set_yscale("log")
+    axis.set_xlabel("shots")
+    axis.set_ylabel("unshot fraction of emitted power")
+    axis.grid(True, which="both", alpha=0.3)
+    axis.legend(fontsize=7)
+    axis.set_title("Convergence with the hemicube and the hemisphere projection, "
+                   "no subdivision", fontsize=10)
+    figure.tight_layout()
+    figure.savefig(RESULTS / "projection-convergence.png", dpi=110)
+
+
+def table2_markdown(path):
+    """The paper's Table 2 from one bench_projections.py run, one Markdown table per scene."""
+    run = json.loads(Path(path).read_text())
+    lines = []
+
+    def rms(entry, key):
+        return f"{entry[key]:.4g} ({entry['relative_' + key]:.2%})"
+
+    for name, scene in run["scenes"].items():
+        side = scene["reference_quad_side"]
+        lines.append(f"**{name}** ({scene['triangles']} triangles; a size s is s x "
+                     f"{run['size_scale']:g} texels across the {side:.3g} m reference quad; "
+                     f"unshot threshold {run['threshold']:g})")
+        lines.append("")
+        header = ["type", "level", "size", "texels", "hemicube t [s]", "shots",
+                  "hemisphere RMS (rel.)", "t [s]", "shots", "non-linear RMS (rel.)", "t [s]",
+                  "shots"]
+        if run["cycles"]:
+            header.append("RMS vs Cycles: hemicube / hemisphere / non-linear")
+        lines.append("| " + " | ".join(header) + " |")
+        lines.append("| --- | ---: | ---: |" + " ---: |" * (len(header) - 3))
+        for row in scene["rows"]:
+            cube, sphere, nonlinear = (row["runs"][p]
+                                       for p in ("HEMICUBE", "HEMISPHERE", "NONLINEAR"))
+            cells = [SUBDIVISION_NAMES[row["subdivision"]], row["level"], row["size"],
+                     f"{cube['texels']:,}", f"{cube['seconds']:.2f}", cube["shots"],
+                     rms(sphere, "rms"), f"{sphere['seconds']:.2f}", sphere["shots"],
+                     rms(nonlinear, "rms"), f"{nonlinear['seconds']:.2f}", nonlinear["shots"]]
+            if run["cycles"]:
+                cells.append(" / ".join(f"{entry['cycles_rms']:.4g}"
+                                        for entry in (cube, sphere, nonlinear)))
+            lines.append("| " + " | ".join(str(cell) for cell in cells) + " |")
+        lines.append("")
+    print("\n".join(lines))
+
+
 if __name__ == "__main__":
-    breakdown()
-    convergence()
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--table2", type=Path, metavar="PROJECTIONS_JSON",
+                        help="print this bench_projections.py result as Markdown tables")
+    args = parser.parse_args()
+    if args.table2:
+        table2_markdown(args.table2)
+    else:
+        breakdown()
+        convergence()
+        projections()
+        projection_convergence()

@@ -1,4 +1,5 @@
 """Bad input gets a typed error naming the object and the fix; output files are sound."""
+from dataclasses import fields
 import os
 
 import numpy as np
@@ -6,8 +7,8 @@ import pytest
 
 import scenes
 from native import (GLUnavailableError, GPUMemoryError, PointLight, Scene, SceneError,
-                    Settings, SettingsError, Solver, SpotLight, read_exr, tone_map, write_exr,
-                    write_png)
+                    Settings, SettingsError, Solver, SpotLight, SunLight, read_exr, tone_map,
+                    write_exr, write_png)
 from native.samples import SceneBuilder, cornell_box
 
 
@@ -149,3 +150,44 @@ def test_written_files_get_the_usual_permissions(tmp_path):
     finally:
         os.umask(umask)
     assert (tmp_path / "page0.exr").stat().st_mode & 0o777 == 0o644
+
+
+def test_scene_save_and_load_round_trip_every_field(tmp_path):
+    rng = np.random.default_rng(2)
+    scene = Scene(**two_quads(
+        normals=np.tile((0.0, 0.0, 1.0), (8, 1)),
+        emission_two_sided=[True, True, False, False], receive=[True, True, False, False],
+        occlude=[True, True, False, False], object_texel_scale=[2.0, 0.5],
+        albedo_uv=rng.random((4, 3, 2)), albedo_texture_index=[0, 1, -1, -1],
+        albedo_textures=[rng.random((3, 5, 3)) * 0.9, rng.random((2, 2, 4)) * 0.9],
+        lights=[PointLight(position=(0.1, 0.2, 0.9), power=5.0, color=(1.0, 0.5, 0.25)),
+                SpotLight(position=np.array([0.5, 0.5, 0.8]), power=8.0, spot_size=0.7,
+                          spot_blend=0.3, direction=(0.0, 0.1, -1.0), name="Spotty"),
+                SunLight(direction=(0.2, -0.3, -1.0), strength=2.0, name="Sunny")],
+        sky=(0.01, 0.02, 0.03)))
+    path = tmp_path / "scene.npz"
+    scene.save(path)
+    loaded = Scene.load(path)
+    for field in fields(Scene):
+        original, restored = getattr(scene, field.name), getattr(loaded, field.name)
+        if field.name == "lights":
+            assert [type(light) for light in restored] == [type(light) for light in original]
+            for a, b in zip(original, restored):
+                for key, value in vars(a).items():
+                    assert np.array_equal(np.asarray(getattr(b, key)), np.asarray(value)), key
+        elif field.name == "albedo_textures":
+            assert len(restored) == len(original)
+            for a, b in zip(original, restored):
+                np.testing.assert_array_equal(b, a)
+        elif isinstance(original, list):
+            assert restored == original, field.name
+        else:
+            np.testing.assert_array_equal(restored, original, err_msg=field.name)
+
+
+def test_scene_without_normals_or_textures_loads_the_same(tmp_path):
+    scene = cornell_box()
+    scene.save(tmp_path / "box.npz")
+    loaded = Scene.load(tmp_path / "box.npz")
+    assert loaded.normals is None and loaded.albedo_uv is None and loaded.albedo_textures == []
+    np.testing.assert_array_equal(loaded.triangle_area, scene.triangle_area)
