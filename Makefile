@@ -8,7 +8,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 
-.PHONY: bake test bench extension extension-check samples clean
+.PHONY: bake test bench bench-projections extension extension-check samples clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -38,6 +38,18 @@ test: $(VENV)/.dev
 
 bench: $(VENV)/.bench
 	$(BIN)/python bench/bench_core.py --shoot-level 0 --json bench/results/core-$(DEVICE).json
+	$(BIN)/python bench/plot.py
+
+# The paper's Table 2 and Figure 6; sizes scaled down for software rendering by default
+# (SIZE_SCALE=1 THRESHOLD=0.01 CONVERGENCE_SIZE=256 for the paper's sizes on a GPU).
+SIZE_SCALE ?= 0.125
+THRESHOLD ?= 0.03
+CONVERGENCE_SIZE ?= 32
+bench-projections: $(VENV)/.bench
+	$(BIN)/python bench/bench_projections.py --size-scale $(SIZE_SCALE) --threshold $(THRESHOLD) \
+		--cycles --json bench/results/projections-$(DEVICE).json
+	$(BIN)/python bench/bench_projection_convergence.py --size $(CONVERGENCE_SIZE) \
+		--json bench/results/projection-convergence-$(DEVICE).json
 	$(BIN)/python bench/plot.py
 
 # The installable extension: dist/luxel-<version>.zip with the dependency wheels.

@@ -16,7 +16,8 @@ same atlas; the RMS of a hemisphere projection is against the hemicube bake of i
   stop keep it within minutes.
 - shooting level: the coarsest whose blocks fit the scene's narrowest object (bench/common.py),
   the nearest we have to the paper's shooting from each triangle's own texture.
-- RMS (eq. 1): the root of the mean, over the texels occupied in both lightmaps, of the squared
+- RMS (eq. 1): the root of the mean, over the texels occupied in both lightmaps and outside the
+  emitters' near field (emitter_spheres), of the squared
   length of the RGB difference (the printed eq. 1 leaves out the square); relative RMS divides
   it by the root mean square length of the reference's RGB. Lightmap texels are reflected
   radiance, in the scene's own units.
@@ -57,6 +58,9 @@ def bake(scene, settings, ctx):
         progress = solver.run()
         pages = solver.result()
         seconds = time.perf_counter() - start
+        # Texels in an emitter's near field are left out of every RMS (see emitter_spheres).
+        for page, samples in zip(pages, solver.texel_samples()):
+            page[..., 3] *= far_from_emitters(scene, samples["position"])
         return pages, {
             "seconds": seconds, "shots": progress.shots, "texels": solver.texel_count,
             "unshot_fraction": progress.unshot_fraction, "converged": progress.converged,
@@ -95,7 +99,6 @@ class CyclesReference:
                 and np.array_equal(exported.triangles, scene.triangles)):
             raise SystemExit(f"bench/scenes/{name}.npz is not {name}.blend as exported now: "
                              "run bench/export_scenes.py")
-        self.near_emitters = emitter_spheres(scene)
         self.samples, self.bounces = samples, bounces
         self.pages = {}
         self.seconds = {}
@@ -123,13 +126,18 @@ class CyclesReference:
             for pixels in per_object.values():
                 written = pixels[..., 3] > 0.0
                 merged[written] = pixels[written]
-            far = np.ones(merged.shape[:2], dtype=bool)
-            for centre, radius in self.near_emitters:
-                far &= np.linalg.norm(positions[0] - centre, axis=2) >= radius
-            merged[..., 3] = (merged[..., 3] > 0.0) & far
+            merged[..., 3] = (merged[..., 3] > 0.0) * far_from_emitters(scene, positions[0])
             self.pages[density] = [merged]
             self.texels[density] = int(merged[..., 3].sum())
         return self.pages[density]
+
+
+def far_from_emitters(scene, positions):
+    """1 for texel positions outside every emitter's near field, 0 inside."""
+    far = np.ones(positions.shape[:2], dtype=np.float32)
+    for centre, radius in emitter_spheres(scene):
+        far *= np.linalg.norm(positions - centre, axis=2) >= radius
+    return far
 
 
 def emitter_spheres(scene):
