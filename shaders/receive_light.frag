@@ -12,6 +12,10 @@ uniform vec3 u_spot_axis;       // direction the spot points to
 uniform float u_spot_cos_half;  // cosine of half the cone angle
 uniform float u_spot_smooth;    // width of the blend band in cosine units
 
+bool in_near_field(vec3 point, float texel_size) {
+    return false;  // point lights and suns have no extent
+}
+
 vec3 irradiance_at(vec3 point, vec3 normal) {
     vec3 irradiance;
     if (u_light_kind == 2) {

@@ -35,6 +35,11 @@ float polygon_form_factor(vec3 p, vec3 n) {
     return min(abs(sum) / (2.0 * PI), 1.0);
 }
 
+bool in_near_field(vec3 point, float texel_size) {
+    float reach = 0.5 * length(u_quad[2] - u_quad[0]) + 2.0 * texel_size;
+    return distance(point, u_centre) < reach;
+}
+
 vec3 irradiance_at(vec3 point, vec3 normal) {
     vec3 from_shooter = point - u_centre;
     float height = dot(from_shooter, u_frame[2]);

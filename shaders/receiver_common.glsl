@@ -11,6 +11,8 @@ layout(location = 1) out vec4 out_unshot;      // added to the unshot radiance
 const float PI = 3.14159265358979;
 
 vec3 irradiance_at(vec3 point, vec3 normal);
+// Whether the texel lies so close to the shooter that it gathers at its sample point only.
+bool in_near_field(vec3 point, float texel_size);
 
 void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
@@ -21,11 +23,13 @@ void main() {
     vec4 tangent = texelFetch(u_tangent, texel, 0);
     int split = 1 << int(tangent.w + 0.5);
     vec3 irradiance = vec3(0.0);
-    if (split == 1) {
+    if (split == 1 || in_near_field(position.xyz, normal.w)) {
         irradiance = irradiance_at(position.xyz, normal.xyz);
     } else {
         // A subdivided texel gathers at split x split points spread over the part of the
-        // texel square its surface covers (the whole square inside a chart).
+        // texel square its surface covers (the whole square inside a chart). Not next to the
+        // shooter: a texel there re-shoots from its sample point, so light gathered over the
+        // rest of its square (say in a gap behind an emitter) would leak out from there.
         float coverage = clamp(position.w / (normal.w * normal.w), 0.0, 1.0);
         float side = normal.w * sqrt(coverage);
         vec3 bitangent = cross(normal.xyz, tangent.xyz);
