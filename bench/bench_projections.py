@@ -40,6 +40,7 @@ import numpy as np
 from common import (ROOT, device_name, load_scene, reference_side, save_results,
                     shoot_level_for, texel_density_for_size)  # also puts the repo on sys.path
 from native import Settings, Solver, create_context
+from native.compare import lightmap_error
 
 SCENES = ("columns", "cornell_box")
 REFERENCE = "HEMICUBE"
@@ -71,19 +72,8 @@ def bake(scene, settings, ctx):
 
 def rms(pages, reference_pages):
     """Eq. 1 over the texels occupied (alpha 1) in both: (RMS, RMS relative to the reference)."""
-    squares = reference_squares = 0.0
-    count = 0
-    for page, reference in zip(pages, reference_pages, strict=True):
-        if page.shape != reference.shape:
-            raise ValueError(f"the atlases differ: {page.shape[:2]} against {reference.shape[:2]}")
-        occupied = (page[..., 3] > 0.5) & (reference[..., 3] > 0.5)
-        rgb = page[..., :3][occupied].astype(np.float64)
-        reference_rgb = reference[..., :3][occupied].astype(np.float64)
-        squares += float(((rgb - reference_rgb) ** 2).sum())
-        reference_squares += float((reference_rgb ** 2).sum())
-        count += int(occupied.sum())
-    value = np.sqrt(squares / max(count, 1))
-    return float(value), float(value / max(np.sqrt(reference_squares / max(count, 1)), 1e-30))
+    error = lightmap_error(pages, reference_pages)
+    return error.rms, error.relative_rms
 
 
 class CyclesReference:

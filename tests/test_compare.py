@@ -1,0 +1,54 @@
+"""Lightmap error measures against closed forms."""
+import numpy as np
+import pytest
+
+from native.compare import error_map, lightmap_error
+
+
+def page(rgb, mask):
+    return np.concatenate([rgb, mask[..., None].astype(np.float32)], axis=2).astype(np.float32)
+
+
+def test_identical_lightmaps_have_no_error():
+    rng = np.random.default_rng(1)
+    reference = page(rng.random((16, 16, 3)), rng.random((16, 16)) > 0.3)
+    error = lightmap_error([reference], [reference.copy()])
+    assert error.rms == 0.0 and error.max_error == 0.0 and error.relative_rms == 0.0
+
+
+def test_a_known_perturbation_gives_its_analytic_rms():
+    """Adding (d, d, d) to a quarter of the compared texels: every difference has length
+    d sqrt(3), so RMS = d sqrt(3) / 2 and the maximum d sqrt(3); texels outside the masks
+    (either one) do not count, however wrong."""
+    mask = np.zeros((8, 8), bool)
+    mask[:, :4] = True
+    reference = page(np.full((8, 8, 3), 0.5), mask)
+    luxel = reference.copy()
+    d = 0.2
+    luxel[:2, :4, :3] += d          # 8 of the 32 compared texels
+    luxel[:, 4:, :3] = 100.0        # outside the masks
+    error = lightmap_error([luxel], [reference])
+    assert error.texels == 32
+    assert error.rms == pytest.approx(d * np.sqrt(3) / 2)
+    assert error.max_error == pytest.approx(d * np.sqrt(3))
+    assert error.relative_rms == pytest.approx(error.rms / (0.5 * np.sqrt(3)))
+
+
+def test_mismatched_or_disjoint_lightmaps_are_refused():
+    a = page(np.zeros((4, 4, 3)), np.ones((4, 4), bool))
+    with pytest.raises(ValueError, match="reference"):
+        lightmap_error([a], [page(np.zeros((4, 5, 3)), np.ones((4, 5), bool))])
+    with pytest.raises(ValueError, match="no texel"):
+        lightmap_error([a], [page(np.zeros((4, 4, 3)), np.zeros((4, 4), bool))])
+
+
+def test_error_map_runs_from_black_to_white_and_greys_out_unmasked_texels():
+    reference = page(np.zeros((1, 4, 3)), np.array([[True, True, True, False]]))
+    luxel = reference.copy()
+    luxel[0, 1, :3] = 0.5 / np.sqrt(3)   # half the scale: the middle stop, green
+    luxel[0, 2, :3] = 10.0               # beyond the scale: white
+    colours = error_map(luxel, reference, scale=1.0)
+    np.testing.assert_allclose(colours[0, 0, :3], [0, 0, 0])
+    np.testing.assert_allclose(colours[0, 1, :3], [0, 1, 0], atol=1e-6)
+    np.testing.assert_allclose(colours[0, 2, :3], [1, 1, 1])
+    np.testing.assert_allclose(colours[0, 3, :3], [0.5, 0.5, 0.5])
