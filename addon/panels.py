@@ -27,12 +27,16 @@ class LUXEL_PT_render(bpy.types.Panel):
         layout.prop(settings, "show_baked")
 
 
-class LUXEL_PT_render_visibility(bpy.types.Panel):
-    bl_label = "Visibility"
+class _RenderSubPanel:
+    """Where the render panel's sub-panels live."""
     bl_space_type = 'PROPERTIES'
     bl_region_type = 'WINDOW'
     bl_context = "render"
     bl_parent_id = "LUXEL_PT_render"
+
+
+class LUXEL_PT_render_visibility(_RenderSubPanel, bpy.types.Panel):
+    bl_label = "Visibility"
 
     def draw(self, context):
         layout = self.layout
@@ -44,12 +48,8 @@ class LUXEL_PT_render_visibility(bpy.types.Panel):
         column.prop(settings, "neighbour_visibility")
 
 
-class LUXEL_PT_render_subdivision(bpy.types.Panel):
+class LUXEL_PT_render_subdivision(_RenderSubPanel, bpy.types.Panel):
     bl_label = "Subdivision"
-    bl_space_type = 'PROPERTIES'
-    bl_region_type = 'WINDOW'
-    bl_context = "render"
-    bl_parent_id = "LUXEL_PT_render"
 
     def draw(self, context):
         layout = self.layout
@@ -65,12 +65,8 @@ class LUXEL_PT_render_subdivision(bpy.types.Panel):
             column.prop(settings, "subdivision_shadow_max", text="Max")
 
 
-class LUXEL_PT_render_stats(bpy.types.Panel):
+class LUXEL_PT_render_stats(_RenderSubPanel, bpy.types.Panel):
     bl_label = "Last Bake"
-    bl_space_type = 'PROPERTIES'
-    bl_region_type = 'WINDOW'
-    bl_context = "render"
-    bl_parent_id = "LUXEL_PT_render"
 
     def draw(self, context):
         stats = context.scene.luxel.stats

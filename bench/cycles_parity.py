@@ -16,6 +16,7 @@ import numpy as np
 
 from common import save_results  # also puts the repository on sys.path
 from native import Settings, Solver
+from native.compare import lightmap_error
 from native.samples import CORNELL_LIGHT, cornell_box
 
 import bpy  # noqa: E402  (after numpy: bpy pins the same numpy)
@@ -151,10 +152,9 @@ def main():
     position, normal = samples["position"], samples["normal"]
     distance = np.linalg.norm(position - np.array([0.278, 0.5487, 0.2795]), axis=2)
     compared = occupied & full & (distance > 0.1)
-    difference = np.linalg.norm(luxel[..., :3] - cycles[..., :3], axis=2)[compared]
-    reference = np.linalg.norm(cycles[..., :3], axis=2)[compared]
-    rms = float(np.sqrt(np.mean(difference ** 2)))
-    relative = rms / float(np.sqrt(np.mean(reference ** 2)))
+    masked = [np.dstack([image[..., :3], compared]) for image in (luxel, cycles)]
+    error = lightmap_error([masked[0]], [masked[1]])
+    rms, relative = error.rms, error.relative_rms
     print(f"Luxel ({device}): {shots} shots, {luxel_seconds:.1f} s; Cycles CPU: "
           f"{args.samples} samples, {cycles_seconds:.1f} s")
     print(f"texels compared: {compared.sum()}, RMS {rms:.4g}, relative RMS {relative:.2%}")

@@ -584,15 +584,9 @@ class Solver:
         ctx.blend_equation = moderngl.MAX
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         vao = self._level_vaos["level"]
-        for page_index in np.unique(self._slot_pages[slots]):
-            page = self._pages[page_index]
-            page.level_only.color_mask = (False, False, False, True)  # applied by use()
-            page.level_only.use()
-            page.textures["position"].use(location=1)
-            page.textures["normal"].use(location=2)
-            for first, count in _runs(slots[self._slot_pages[slots] == page_index]):
+        for page_slots in self._per_page(slots, "level_only", (False, False, False, True)):
+            for first, count in _runs(page_slots):
                 vao.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * first)
-            page.level_only.color_mask = (True, True, True, True)
         ctx.blend_equation = moderngl.FUNC_ADD
         ctx.disable(moderngl.BLEND)
 
@@ -660,24 +654,32 @@ class Solver:
             self._caster_levels = np.maximum(self._caster_levels, wanted)
             self._caster_vbo.write(np.repeat(self._caster_levels, 3).astype("f4").tobytes())
 
+    def _per_page(self, slots, framebuffer, color_mask):
+        """Yield the part of ``slots`` on each page, with that page's ``framebuffer`` bound
+        under ``color_mask`` and its position and normal maps on units 1 and 2."""
+        for page_index in np.unique(self._slot_pages[slots]):
+            page = self._pages[page_index]
+            target = getattr(page, framebuffer)
+            target.color_mask = color_mask  # applied by use()
+            target.use()
+            page.textures["position"].use(location=1)
+            page.textures["normal"].use(location=2)
+            yield slots[self._slot_pages[slots] == page_index]
+            target.color_mask = (True, True, True, True)
+
     def _count_shadowed(self, slots, queries):
         """(lit, shadowed) texel counts of each triangle in ``slots``, by occlusion queries."""
         program = self._programs["count"]
         vao = self._level_vaos["count"]
         index = 0
-        for page_index in np.unique(self._slot_pages[slots]):
-            page = self._pages[page_index]
-            page.unshot_only.color_mask = (False, False, False, False)  # applied by use()
-            page.unshot_only.use()
-            page.textures["position"].use(location=1)
-            page.textures["normal"].use(location=2)
-            for slot in slots[self._slot_pages[slots] == page_index]:
+        # Only the query counts matter: nothing is written.
+        for page_slots in self._per_page(slots, "unshot_only", (False, False, False, False)):
+            for slot in page_slots:
                 for hidden in (0, 1):
                     _set(program, "u_count_hidden", hidden)
                     with queries[index + hidden]:
                         vao.render(moderngl.TRIANGLES, vertices=3, first=3 * int(slot))
                 index += 2
-            page.unshot_only.color_mask = (True, True, True, True)
         return np.array([query.samples for query in queries[:index]],
                         dtype=np.float64).reshape(-1, 2)
 
