@@ -8,7 +8,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 
-.PHONY: bake test bench bench-projections extension extension-check samples clean
+.PHONY: bake test compare bench bench-projections extension extension-check samples clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -35,6 +35,11 @@ bake: $(VENV)/.blender
 
 test: $(VENV)/.dev
 	$(BIN)/python -m pytest -q tests
+
+# Luxel against Cycles on the Cornell box: out/compare/report.html and report.json.
+compare: $(VENV)/.blender
+	$(BIN)/python tools/blender.py -b sample_blends/cornell_box.blend --command luxel compare \
+		--output out/compare --density 60 --threshold 0.01 --samples 1024 --view-samples 256
 
 bench: $(VENV)/.bench
 	$(BIN)/python bench/bench_core.py --shoot-level 0 --json bench/results/core-$(DEVICE).json

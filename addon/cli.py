@@ -1,5 +1,6 @@
-"""``blender -b scene.blend --command luxel bake ...``: a headless bake for pipelines.
-Progress goes to stdout; a failure prints one line to stderr and exits non-zero."""
+"""``blender -b scene.blend --command luxel bake|compare ...``: a headless bake, or a comparison
+with Cycles, for pipelines. Progress goes to stdout; a failure prints one line to stderr and
+exits non-zero."""
 import argparse
 import os
 import sys
@@ -8,6 +9,7 @@ import bpy
 
 from ..native import MAX_SUBDIVISION_LEVEL, LuxelError
 from .bake import BakeJob
+from .compare import CompareOptions, compare_with_cycles, summary_lines
 from .properties import PROJECTIONS, SUBDIVISIONS
 
 EXIT_FAILED = 1
@@ -25,29 +27,43 @@ class _Parser(argparse.ArgumentParser):
 
 def _parser():
     parser = _Parser(prog="blender -b FILE.blend --command luxel",
-                     description="Bake Luxel lightmaps in the background.")
+                     description="Bake Luxel lightmaps in the background, or compare them "
+                     "with Cycles.")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     bake = commands.add_parser("bake", help="bake the open .blend's scene")
-    bake.add_argument("--projection", choices=[item[0] for item in PROJECTIONS])
-    bake.add_argument("--no-neighbour-visibility", action="store_true",
-                      help="a receiver is visible only when its own visibility texel sees it")
-    bake.add_argument("--subdivision", choices=[item[0] for item in SUBDIVISIONS],
-                      help="texels that gather light at several points")
-    bake.add_argument("--subdivision-level", type=int, metavar="N",
-                      help=f"gather at 4^N points per texel, N in 1..{MAX_SUBDIVISION_LEVEL}")
-    bake.add_argument("--shadow-range", type=float, nargs=2, metavar=("MIN", "MAX"),
-                      help="ADAPTIVE refines triangles whose shadowed share lies in [MIN, MAX]")
-    bake.add_argument("--adaptive-shoot-level", action="store_true",
-                      help="weak shooters shoot from coarser blocks")
-    bake.add_argument("--shots", type=int, help="stop after this many shots")
-    bake.add_argument("--threshold", type=float, help="stop at this unshot energy fraction")
-    bake.add_argument("--density", type=float, help="lightmap texels per metre")
+    _add_bake_options(bake)
     bake.add_argument("--output", metavar="DIR", help="write EXR lightmaps into DIR")
     bake.add_argument("--preview", metavar="PNG",
                       help="render the camera view with the baked lighting (Workbench)")
     bake.add_argument("--save", action="store_true",
                       help="save the .blend with the lightmaps (packed, or linked to --output)")
+    compare = commands.add_parser("compare", help="bake with Luxel and with Cycles; write "
+                                  "report.json, report.html and images into DIR")
+    _add_bake_options(compare)
+    compare.add_argument("--output", metavar="DIR", required=True, help="the report folder")
+    compare.add_argument("--samples", type=int, help="Cycles samples of the reference bake")
+    compare.add_argument("--view-samples", type=int, help="Cycles samples of each view")
+    compare.add_argument("--views", type=int, help="views: the cameras, then automatic ones")
+    compare.add_argument("--resolution", type=int, nargs=2, metavar=("W", "H"),
+                         help="size of the views in pixels")
     return parser
+
+
+def _add_bake_options(parser):
+    parser.add_argument("--projection", choices=[item[0] for item in PROJECTIONS])
+    parser.add_argument("--no-neighbour-visibility", action="store_true",
+                        help="a receiver is visible only when its own visibility texel sees it")
+    parser.add_argument("--subdivision", choices=[item[0] for item in SUBDIVISIONS],
+                        help="texels that gather light at several points")
+    parser.add_argument("--subdivision-level", type=int, metavar="N",
+                        help=f"gather at 4^N points per texel, N in 1..{MAX_SUBDIVISION_LEVEL}")
+    parser.add_argument("--shadow-range", type=float, nargs=2, metavar=("MIN", "MAX"),
+                        help="ADAPTIVE refines triangles whose shadowed share is in [MIN, MAX]")
+    parser.add_argument("--adaptive-shoot-level", action="store_true",
+                        help="weak shooters shoot from coarser blocks")
+    parser.add_argument("--shots", type=int, help="stop after this many shots")
+    parser.add_argument("--threshold", type=float, help="stop at this unshot energy fraction")
+    parser.add_argument("--density", type=float, help="lightmap texels per metre")
 
 
 def execute(argv):
@@ -59,9 +75,9 @@ def execute(argv):
         print(f"luxel: {error}", file=sys.stderr)
         return EXIT_USAGE
     try:
-        return _bake(args)
+        return _bake(args) if args.command == "bake" else _compare(args)
     except LuxelError as error:
-        print(f"luxel: bake failed: {error}", file=sys.stderr)
+        print(f"luxel: {args.command} failed: {error}", file=sys.stderr)
         return EXIT_FAILED
 
 
@@ -80,13 +96,18 @@ def _check(args):
         if not 0.0 <= shadow_min < shadow_max <= 1.0:
             raise _UsageError("--shadow-range MIN MAX must satisfy 0 <= MIN < MAX <= 1, "
                               "e.g. 0.02 0.98")
-    if args.save and not bpy.data.filepath:
+    if args.command == "bake" and args.save and not bpy.data.filepath:
         raise _UsageError("--save needs a .blend file: open one with blender -b FILE.blend")
+    if args.command == "compare":
+        for option, value in (("--samples", args.samples), ("--view-samples", args.view_samples),
+                              ("--views", args.views)):
+            if value is not None and value < 1:
+                raise _UsageError(f"{option} must be 1 or more")
+        if args.resolution is not None and min(args.resolution) < 16:
+            raise _UsageError("--resolution W H must be at least 16 x 16 pixels")
 
 
-def _bake(args):
-    context = bpy.context
-    settings = context.scene.luxel
+def _apply_bake_options(args, settings):
     if args.projection:
         settings.projection = args.projection
     if args.no_neighbour_visibility:
@@ -105,6 +126,12 @@ def _bake(args):
         settings.threshold = args.threshold
     if args.density is not None:
         settings.texel_density = args.density
+
+
+def _bake(args):
+    context = bpy.context
+    settings = context.scene.luxel
+    _apply_bake_options(args, settings)
     if args.output:
         settings.output = 'FILES'
         settings.directory = os.path.abspath(args.output)
@@ -131,6 +158,27 @@ def _bake(args):
     if args.save:
         bpy.ops.wm.save_mainfile()
         print(f"luxel: saved {bpy.data.filepath}", flush=True)
+    return 0
+
+
+def _compare(args):
+    context = bpy.context
+    _apply_bake_options(args, context.scene.luxel)
+    defaults = context.scene.luxel.comparison
+    options = CompareOptions(
+        directory=os.path.abspath(args.output),
+        samples=args.samples or defaults.samples,
+        view_samples=args.view_samples or defaults.view_samples,
+        resolution=tuple(args.resolution or defaults.resolution),
+        views=args.views or defaults.views)
+
+    def progress(fraction, text):
+        print(f"luxel: compare {100.0 * fraction:3.0f} %: {text}", flush=True)
+
+    report = compare_with_cycles(context, options, progress)
+    for line in summary_lines(report):
+        print(f"luxel: {line}", flush=True)
+    print(f"luxel: report {os.path.join(options.directory, 'report.html')}", flush=True)
     return 0
 
 

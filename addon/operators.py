@@ -1,9 +1,11 @@
 """``luxel.bake``: modal with a progress bar from the UI (Esc cancels), synchronous from scripts
 and in background mode. Luxel's typed errors become reports naming the object and the fix."""
 import bpy
+from bpy.props import StringProperty
 
 from ..native import LuxelError
 from .bake import BakeJob
+from .compare import CompareOptions, compare_with_cycles, summary_lines
 
 TIMER_SECONDS = 0.05
 STEP_SECONDS = 0.1       # GPU work per timer tick: long enough to progress, short for the UI
@@ -103,7 +105,53 @@ class LUXEL_OT_bake(bpy.types.Operator):
         context.workspace.status_text_set(None)
 
 
-_register, _unregister = bpy.utils.register_classes_factory((LUXEL_OT_bake,))
+class LUXEL_OT_compare(bpy.types.Operator):
+    """Bake with Luxel and with Cycles, and write error maps, views, perceptual differences and
+    speed-against-error curves into a report folder"""
+    bl_idname = "luxel.compare"
+    bl_label = "Compare with Cycles"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    directory: StringProperty(name="Folder", subtype='DIR_PATH',
+                              description="Report folder; empty: the scene's comparison folder")
+
+    @classmethod
+    def poll(cls, context):
+        if LUXEL_OT_bake._modal_running:
+            cls.poll_message_set("A Luxel bake is running (Esc cancels it)")
+            return False
+        return context.scene is not None and context.mode == 'OBJECT'
+
+    def execute(self, context):
+        settings = context.scene.luxel.comparison
+        options = CompareOptions(directory=self.directory or settings.directory,
+                                 samples=settings.samples, view_samples=settings.view_samples,
+                                 resolution=tuple(settings.resolution), views=settings.views)
+        wm = context.window_manager
+        interactive = context.window is not None and not bpy.app.background
+
+        def progress(fraction, text):
+            if interactive:
+                wm.progress_update(int(1000 * fraction))
+                context.workspace.status_text_set(f"Luxel: comparing with Cycles: {text}")
+
+        if interactive:
+            wm.progress_begin(0, 1000)
+        try:
+            report = compare_with_cycles(context, options, progress)
+        except LuxelError as error:
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+        finally:
+            if interactive:
+                wm.progress_end()
+                context.workspace.status_text_set(None)
+        for line in summary_lines(report):
+            self.report({'INFO'}, line)
+        return {'FINISHED'}
+
+
+_register, _unregister = bpy.utils.register_classes_factory((LUXEL_OT_bake, LUXEL_OT_compare))
 
 
 def register():

@@ -81,6 +81,31 @@ class LUXEL_PT_render_stats(_RenderSubPanel, bpy.types.Panel):
         column.label(text=f"Images: {stats.pages}")
 
 
+class LUXEL_PT_render_compare(_RenderSubPanel, bpy.types.Panel):
+    bl_label = "Compare with Cycles"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.luxel.comparison
+        column = layout.column()
+        column.prop(settings, "samples")
+        column.prop(settings, "view_samples")
+        column.prop(settings, "views")
+        column.prop(settings, "resolution")
+        column.prop(settings, "directory")
+        layout.operator("luxel.compare", icon='IMAGE_REFERENCE')
+        if not settings.valid:
+            return
+        column = layout.column(align=True)
+        column.label(text=f"Relative RMS: {100.0 * settings.rel_rms:.2f} %")
+        column.label(text=f"RMS: {settings.rms:.4g}   Max: {settings.max_error:.4g}")
+        column.label(text=f"FLIP: {settings.flip_mean:.4f}")
+        column.label(text=f"Yee: {100.0 * settings.yee_fraction:.0f} % of views differ")
+        column.label(text=f"Report: {settings.report}")
+
+
 class LUXEL_PT_object(bpy.types.Panel):
     bl_label = "Luxel Lightmap"
     bl_space_type = 'PROPERTIES'
@@ -107,7 +132,7 @@ class LUXEL_PT_object(bpy.types.Panel):
 
 _register, _unregister = bpy.utils.register_classes_factory(
     (LUXEL_PT_render, LUXEL_PT_render_visibility, LUXEL_PT_render_subdivision,
-     LUXEL_PT_render_stats, LUXEL_PT_object))
+     LUXEL_PT_render_stats, LUXEL_PT_render_compare, LUXEL_PT_object))
 
 
 def register():

@@ -1,7 +1,7 @@
 """Luxel's settings and results, saved in the .blend: ``scene.luxel`` and ``object.luxel``."""
 import bpy
-from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
-                       StringProperty)
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty,
+                       IntVectorProperty, PointerProperty, StringProperty)
 
 from ..native import MAX_SUBDIVISION_LEVEL, Settings
 
@@ -41,6 +41,32 @@ class LuxelBakeStats(bpy.types.PropertyGroup):
                           description="Share of the emitted power still unshot at the end")
     pages: IntProperty(name="Pages", description="Lightmap images written")
     valid: BoolProperty(name="Baked", description="A bake has finished in this scene")
+
+
+class LuxelComparison(bpy.types.PropertyGroup):
+    """Settings of Compare with Cycles and the headline numbers of its last run."""
+    directory: StringProperty(name="Folder", default="//luxel_compare", subtype='DIR_PATH',
+                              description="Folder for report.html, report.json and images "
+                              "(relative to the .blend)")
+    samples: IntProperty(name="Reference Samples", default=256, min=4, soft_max=16384,
+                         description="Cycles samples of the reference bake; its curve bakes "
+                         "1, 4, 16, ... samples below this")
+    view_samples: IntProperty(name="View Samples", default=128, min=1, soft_max=4096,
+                              description="Cycles samples of each path-traced view")
+    views: IntProperty(name="Views", default=5, min=1, max=32,
+                       description="Views rendered: the scene's cameras, then automatic ones")
+    resolution: IntVectorProperty(name="Resolution", size=2, default=(320, 240), min=16,
+                                  max=8192, description="Width and height of the views")
+    valid: BoolProperty(name="Compared", description="A comparison has finished")
+    rel_rms: FloatProperty(name="Relative RMS", description="Lightmap RMS error divided by the "
+                           "reference's RMS radiance")
+    rms: FloatProperty(name="RMS", description="Lightmap RMS error (the paper's eq. 1)")
+    max_error: FloatProperty(name="Max Error", description="Largest texel error")
+    flip_mean: FloatProperty(name="FLIP", description="Mean FLIP error over the views")
+    yee_fraction: FloatProperty(name="Yee", description="Share of views that Yee's metric "
+                                "judges different")
+    report: StringProperty(name="Report", subtype='FILE_PATH',
+                           description="report.html of the last comparison")
 
 
 class LuxelSceneSettings(bpy.types.PropertyGroup):
@@ -97,6 +123,7 @@ class LuxelSceneSettings(bpy.types.PropertyGroup):
                                           description="Adaptive refines a triangle when at "
                                           "most this share of its texels is in shadow")
     stats: PointerProperty(type=LuxelBakeStats)
+    comparison: PointerProperty(type=LuxelComparison)
 
     def solver_settings(self):
         return Settings(texel_density=self.texel_density, max_atlas_size=self.max_atlas_size,
@@ -123,7 +150,7 @@ class LuxelObjectSettings(bpy.types.PropertyGroup):
                            description="UV map that the last bake added to this mesh")
 
 
-_classes = (LuxelBakeStats, LuxelSceneSettings, LuxelObjectSettings)
+_classes = (LuxelBakeStats, LuxelComparison, LuxelSceneSettings, LuxelObjectSettings)
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(_classes)
 
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from ..native.compare import texel_noise
 from .display import STATE_KEY, strip_display_nodes
 from .export import DEFAULT_ALBEDO
 from .writeback import UV_MAP
@@ -39,7 +40,7 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0):
     targets = receivers(scene, objects)
     if context.mode != 'OBJECT':
         raise RuntimeError("the Cycles reference bake needs Object Mode")
-    restore = _SettingsSnapshot(scene)
+    restore = SettingsSnapshot(scene)
     view_layer = context.view_layer
     selected = [obj for obj in view_layer.objects if obj.select_get()]
     active = view_layer.objects.active
@@ -47,7 +48,7 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0):
     preview_changes = []
     results = {}
     try:
-        _configure_cycles(scene, samples, bounces, seed)
+        configure_cycles(scene, samples, bounces, seed)
         _hide_luxel_preview(temporary_materials, preview_changes)
         for obj in targets:
             width, height = obj.luxel.image.size
@@ -56,18 +57,21 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0):
             temporary_images.append(image)
             image.colorspace_settings.name = 'Linear Rec.709'
             _point_materials_at(obj, image, temporary_materials, slot_changes, added_slots)
-            for other in view_layer.objects:
-                if other.select_get() != (other == obj):
-                    other.select_set(other == obj)
-            view_layer.objects.active = obj
-            bpy.ops.object.bake(type='DIFFUSE', pass_filter=PASS_FILTER,
-                                uv_layer=obj.luxel.uv_map or UV_MAP, margin=0, use_clear=True,
-                                target='IMAGE_TEXTURES', use_selected_to_active=False,
-                                use_cage=False)
+        # One bake for all: each selected object goes into its own materials' active image,
+        # and Cycles builds the scene once instead of once per object.
+        for other in view_layer.objects:
+            if other.select_get() != (other in targets):
+                other.select_set(other in targets)
+        view_layer.objects.active = targets[0] if targets else None
+        if targets:
+            bpy.ops.object.bake(type='DIFFUSE', pass_filter=PASS_FILTER, uv_layer=UV_MAP,
+                                margin=0, use_clear=True, target='IMAGE_TEXTURES',
+                                use_selected_to_active=False, use_cage=False)
+        for obj, image in zip(targets, temporary_images):
+            width, height = image.size
             pixels = np.empty(width * height * 4, dtype=np.float32)
             image.pixels.foreach_get(pixels)
             results[obj.name] = pixels.reshape(height, width, 4)
-            _restore_slots(slot_changes, added_slots)
     finally:
         _restore_slots(slot_changes, added_slots)
         _restore_slots(preview_changes, [])
@@ -135,29 +139,14 @@ def object_means(reference, luxel_pages=None):
 
 
 def _standard_error(pixels, covered):
-    """Standard error of the mean over ``covered``, from second differences a - 2b + c of
-    three covered texels in a row or column: independent noise of variance v gives them
-    variance 6 v, and smooth (linear) lighting cancels; shadow edges still add to it. A rough
-    guide (within a factor of a few), for diagnostics, not a bound."""
-    squares, triples = np.zeros(3), 0
-    rgb = pixels[..., :3].astype(np.float64)
-    for axis in (0, 1):
-        length = pixels.shape[axis]
-        if length < 3:
-            continue
-        a, b, c = (np.take(rgb, range(k, length - 2 + k), axis=axis) for k in range(3))
-        both = (np.take(covered, range(0, length - 2), axis=axis)
-                & np.take(covered, range(1, length - 1), axis=axis)
-                & np.take(covered, range(2, length), axis=axis))
-        squares += ((a - 2.0 * b + c)[both] ** 2).sum(axis=0)
-        triples += int(both.sum())
-    if triples == 0:
-        return np.full(3, np.nan)
-    return np.sqrt(squares / triples / 6.0 / int(covered.sum()))
+    """Standard error of the mean over ``covered`` from the texels' estimated noise (see
+    native.compare.texel_noise): a rough guide (within a factor of a few), for diagnostics,
+    not a bound."""
+    return texel_noise(pixels, covered) / np.sqrt(max(int(covered.sum()), 1))
 
 
 # ------------------------------------------------------------------------------- internals
-def _configure_cycles(scene, samples, bounces, seed):
+def configure_cycles(scene, samples, bounces, seed):
     scene.render.engine = 'CYCLES'
     cycles = scene.cycles
     cycles.device = 'CPU'
@@ -252,15 +241,17 @@ def _restore_slots(slot_changes, added_slots):
         obj.data.materials.clear()      # it had none (pop() leaves the object a slot)
 
 
-class _SettingsSnapshot:
-    """The render engine and every plain setting of Cycles and of the bake panel, put back by
-    calling the snapshot (only what changed is written back)."""
+class SettingsSnapshot:
+    """The render engine and every plain setting of Cycles and of the bake panel (or of the
+    given property groups), put back by calling the snapshot (only what changed is written
+    back)."""
 
-    def __init__(self, scene):
+    def __init__(self, scene, groups=None):
         self.scene = scene
         self.engine = scene.render.engine
-        self.groups = [(group, _plain_properties(group))
-                       for group in (scene.cycles, scene.render.bake)]
+        if groups is None:
+            groups = (scene.cycles, scene.render.bake)
+        self.groups = [(group, _plain_properties(group)) for group in groups]
 
     def __call__(self):
         for group, values in self.groups:

@@ -50,3 +50,26 @@ def error_map(page, reference, scale):
     colour = stops[lower] * (1 - blend)[..., None] + stops[lower + 1] * blend[..., None]
     colour[~both] = 0.5
     return np.concatenate([colour, np.ones(colour.shape[:2] + (1,))], axis=2).astype(np.float32)
+
+
+def texel_noise(page, mask):
+    """Estimated per-channel standard deviation (3,) of independent per-texel noise over the
+    texels in ``mask``, from second differences a - 2b + c of three masked texels in a row or
+    column: independent noise of variance v gives them variance 6 v, and lighting that is
+    linear across three texels cancels (shadow edges still add to it). NaN without any such
+    triple. What a Monte Carlo reference's own noise adds to an error measured against it."""
+    squares, triples = np.zeros(3), 0
+    rgb = np.asarray(page, dtype=np.float64)[..., :3]
+    for axis in (0, 1):
+        length = rgb.shape[axis]
+        if length < 3:
+            continue
+        a, b, c = (np.take(rgb, range(k, length - 2 + k), axis=axis) for k in range(3))
+        all_three = (np.take(mask, range(0, length - 2), axis=axis)
+                     & np.take(mask, range(1, length - 1), axis=axis)
+                     & np.take(mask, range(2, length), axis=axis))
+        squares += ((a - 2.0 * b + c)[all_three] ** 2).sum(axis=0)
+        triples += int(all_three.sum())
+    if triples == 0:
+        return np.full(3, np.nan)
+    return np.sqrt(squares / triples / 6.0)

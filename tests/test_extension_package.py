@@ -13,7 +13,7 @@ import zipfile
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-BUNDLED = ("moderngl", "glcontext", "xatlas", "OpenEXR")
+BUNDLED = ("moderngl", "glcontext", "xatlas", "OpenEXR", "flip_evaluator")
 PLATFORM_TAGS = {"linux-x64": "manylinux", "windows-x64": "win_amd64",
                  "macos-arm64": "macosx_11_0_arm64"}
 

@@ -34,7 +34,7 @@ import tempfile
 
 REPO = "user_default"
 PACKAGE = f"bl_ext.{REPO}.luxel"
-BUNDLED = ("moderngl", "glcontext", "xatlas", "OpenEXR")
+BUNDLED = ("moderngl", "glcontext", "xatlas", "OpenEXR", "flip_evaluator")
 
 
 def fail(reason):
