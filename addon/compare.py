@@ -161,7 +161,8 @@ class _SnapshotBake:
             pages = [self.page(page_of[name], rgb) for name in names]
             error = lightmap_error(pages, [reference[name] for name in names])
             points.append({"shots": shots, "seconds": seconds, "rms": error.rms,
-                           "rel_rms": error.relative_rms})
+                           "rel_rms": error.relative_rms,
+                           "objects": _object_rel_rms(names, pages, reference)})
         return points
 
 
@@ -199,11 +200,24 @@ def _cycles_curve(context, options, names, reference):
         bakes = cycles_reference(context, samples=samples, bounces=options.bounces,
                                  objects=names, seed=1)
         seconds = time.perf_counter() - started
-        error = lightmap_error([bakes[n] for n in names], [reference[n] for n in names])
+        pages = [bakes[n] for n in names]
+        error = lightmap_error(pages, [reference[n] for n in names])
         points.append({"samples": samples, "seconds": seconds, "rms": error.rms,
-                       "rel_rms": error.relative_rms})
+                       "rel_rms": error.relative_rms,
+                       "objects": _object_rel_rms(names, pages, reference)})
         samples *= CURVE_SAMPLES_STEP
     return points
+
+
+def _object_rel_rms(names, pages, reference):
+    """{name: relative RMS} of each object's page against its reference."""
+    errors = {}
+    for name, page in zip(names, pages):
+        try:
+            errors[name] = lightmap_error([page], [reference[name]]).relative_rms
+        except ValueError:      # no texel in common
+            errors[name] = float("nan")
+    return errors
 
 
 # ---------------------------------------------------------------------------------- output

@@ -3,6 +3,7 @@ line writes report.json (strict JSON) and report.html with every image they name
 agree with Cycles within what these settings allow; everything but the lightmaps comes back."""
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -107,6 +108,10 @@ def test_curves_fall_with_shots_and_samples(comparison):
     assert luxel[-1]["rms"] == pytest.approx(report["rms"], rel=1e-6)
     seconds = [p["seconds"] for p in luxel]
     assert seconds == sorted(seconds)
+    for point in luxel + cycles:
+        assert set(point["objects"]) == {o["name"] for o in report["objects"]}
+    final = {o["name"]: o["rel_rms"] for o in report["objects"]}
+    assert luxel[-1]["objects"] == pytest.approx(final, rel=1e-6)
 
 
 def test_views_come_from_the_camera_then_automatic_ones(comparison):
@@ -123,6 +128,39 @@ def test_compare_gives_back_everything_but_the_lightmaps(comparison):
     assert after == before
     assert scene.luxel.comparison.valid
     assert scene.luxel.comparison.rel_rms > 0.0
+
+
+class RecordingLayout:
+    """Stands in for a panel's UILayout: records properties, operators and labels."""
+
+    def __init__(self, drawn=None):
+        self.drawn = [] if drawn is None else drawn
+
+    def column(self, **_):
+        return RecordingLayout(self.drawn)
+
+    def prop(self, data, name, **_):
+        self.drawn.append(("prop", name))
+
+    def operator(self, name, **_):
+        self.drawn.append(("operator", name))
+
+    def label(self, text="", **_):
+        self.drawn.append(("label", text))
+
+
+def test_panel_offers_the_comparison_and_shows_its_summary(comparison):
+    _, _, report, _, _, scene = comparison
+    layout = RecordingLayout()
+    panel = blender_session.addon().addon.panels.LUXEL_PT_render_compare
+    panel.draw(SimpleNamespace(layout=layout), SimpleNamespace(scene=scene))
+    props = {name for kind, name in layout.drawn if kind == "prop"}
+    assert props == {"samples", "view_samples", "views", "resolution", "directory"}
+    assert props <= set(scene.luxel.comparison.bl_rna.properties.keys())
+    assert ("operator", "luxel.compare") in layout.drawn
+    labels = " | ".join(text for kind, text in layout.drawn if kind == "label")
+    assert f"Relative RMS: {100.0 * report['rel_rms']:.2f} %" in labels
+    assert f"FLIP: {report['flip_mean']:.4f}" in labels
 
 
 def test_compare_refuses_a_folder_it_cannot_write_and_changes_nothing(tmp_path, capsys):
@@ -145,3 +183,4 @@ def test_compare_operator_needs_a_place_for_its_report():
     with pytest.raises(RuntimeError, match="not saved"):
         bpy.ops.luxel.compare()
     assert not bpy.context.scene.luxel.comparison.valid
+

@@ -56,7 +56,8 @@ def test_error_map_runs_from_black_to_white_and_greys_out_unmasked_texels():
 
 def test_texel_noise_recovers_the_standard_deviation_of_added_noise():
     """Independent Gaussian noise of known sigma per channel on linear lighting: the estimate
-    is sigma (within the sampling error of ~100 k triples); without noise it is 0."""
+    is sigma (within the sampling error of ~100 k triples), also with a hard shadow edge
+    across the page; without noise it is 0."""
     y, x = np.mgrid[0:256, 0:256]
     lighting = np.stack([0.2 + 0.001 * x, 0.1 + 0.002 * y, 0.3 + 0.001 * (x + y)], axis=2)
     mask = np.ones((256, 256), bool)
@@ -65,5 +66,6 @@ def test_texel_noise_recovers_the_standard_deviation_of_added_noise():
     sigma = np.array([0.01, 0.02, 0.05])
     noisy = lighting + np.random.default_rng(3).normal(size=lighting.shape) * sigma
     noisy[100:120, :] = 1e6         # outside the mask: must not count
+    noisy[:, 200:] -= 0.5           # a hard shadow: its edge is not noise
     np.testing.assert_allclose(texel_noise(noisy, mask), sigma, rtol=0.02)
     assert np.isnan(texel_noise(noisy, np.zeros_like(mask))).all()
