@@ -11,6 +11,14 @@ TIMER_SECONDS = 0.05
 STEP_SECONDS = 0.1       # GPU work per timer tick: long enough to progress, short for the UI
 
 
+def _can_start(operator, context):
+    """Bakes and comparisons need Object Mode and no interactive bake running."""
+    if LUXEL_OT_bake._modal_running:
+        operator.poll_message_set("A Luxel bake is running (Esc cancels it)")
+        return False
+    return context.scene is not None and context.mode == 'OBJECT'
+
+
 class LUXEL_OT_bake(bpy.types.Operator):
     """Bake diffuse global illumination into lightmaps with Luxel's GPU radiosity"""
     bl_idname = "luxel.bake"
@@ -23,10 +31,7 @@ class LUXEL_OT_bake(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if cls._modal_running:
-            cls.poll_message_set("A Luxel bake is running (Esc cancels it)")
-            return False
-        return context.scene is not None and context.mode == 'OBJECT'
+        return _can_start(cls, context)
 
     def execute(self, context):
         job = self._start(context)
@@ -117,10 +122,7 @@ class LUXEL_OT_compare(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if LUXEL_OT_bake._modal_running:
-            cls.poll_message_set("A Luxel bake is running (Esc cancels it)")
-            return False
-        return context.scene is not None and context.mode == 'OBJECT'
+        return _can_start(cls, context)
 
     def execute(self, context):
         settings = context.scene.luxel.comparison

@@ -16,6 +16,8 @@ import math
 import flip_evaluator
 import numpy as np
 
+from .perceptual import rgb_pair
+
 
 @dataclass
 class FlipDifference:
@@ -37,12 +39,7 @@ def pixels_per_degree(width_pixels, fov_degrees):
 def flip_ldr(reference, test, pixels_per_degree):
     """LDR-FLIP of test against reference, both (H, W, 3) sRGB-encoded display images in [0, 1],
     for an observer at pixels_per_degree."""
-    reference = np.ascontiguousarray(reference, dtype=np.float32)
-    test = np.ascontiguousarray(test, dtype=np.float32)
-    if reference.shape != test.shape:
-        raise ValueError(f"images differ in shape: {reference.shape} and {test.shape}")
-    if reference.ndim != 3 or reference.shape[2] != 3:
-        raise ValueError(f"images must be (H, W, 3) RGB, got shape {reference.shape}")
+    reference, test = rgb_pair(reference, test, np.float32)
     # flip-evaluator answers a bad ppd with sys.exit, which would end Blender.
     if not pixels_per_degree > 0:
         raise ValueError(f"pixels per degree must be positive, got {pixels_per_degree}")

@@ -122,6 +122,17 @@ def _luminance_and_ab(image, gamma, luminance):
     return xyz[..., 1] * luminance, a_star, b_star
 
 
+def rgb_pair(image_a, image_b, dtype):
+    """Two images as C-contiguous ``dtype`` arrays, checked to be (H, W, 3) of one shape."""
+    image_a = np.ascontiguousarray(image_a, dtype=dtype)
+    image_b = np.ascontiguousarray(image_b, dtype=dtype)
+    if image_a.shape != image_b.shape:
+        raise ValueError(f"images differ in shape: {image_a.shape} and {image_b.shape}")
+    if image_a.ndim != 3 or image_a.shape[2] != 3:
+        raise ValueError(f"images must be (H, W, 3) RGB, got shape {image_a.shape}")
+    return image_a, image_b
+
+
 def compare(image_a, image_b, fov_degrees=37.0, gamma=2.2, luminance=100.0, color_factor=1.0,
             downsample=0, pixel_threshold=0.012):
     """Yee's metric between two display images (H, W, 3), gamma-encoded in [0, 1].
@@ -132,12 +143,7 @@ def compare(image_a, image_b, fov_degrees=37.0, gamma=2.2, luminance=100.0, colo
     comparing) are pdiff's options with pdiff's defaults. pixel_threshold replaces pdiff's
     absolute pixel count: the images are `different` when more than this fraction fails.
     """
-    image_a = np.asarray(image_a, dtype=np.float64)
-    image_b = np.asarray(image_b, dtype=np.float64)
-    if image_a.shape != image_b.shape:
-        raise ValueError(f"images differ in shape: {image_a.shape} and {image_b.shape}")
-    if image_a.ndim != 3 or image_a.shape[2] != 3:
-        raise ValueError(f"images must be (H, W, 3) RGB, got shape {image_a.shape}")
+    image_a, image_b = rgb_pair(image_a, image_b, np.float64)
     for _ in range(downsample):
         image_a, image_b = _down_sample(image_a), _down_sample(image_b)
     width = image_a.shape[1]
