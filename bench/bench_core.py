@@ -16,11 +16,11 @@ from native.samples import cornell_box
 from native.solver import PHASES
 
 
-def bake(scene, ctx, density, shots, shoot_level, resolution, profile):
+def bake(scene, ctx, density, shots, shoot_level, resolution, profile, shooters):
     start = time.perf_counter()
     solver = Solver(scene, Settings(texel_density=density, max_shots=shots, threshold=0.0,
                                     shoot_level=shoot_level, hemicube_resolution=resolution,
-                                    profile=profile), ctx=ctx)
+                                    shooters_per_selection=shooters, profile=profile), ctx=ctx)
     try:
         solver.run()
         solver.result()
@@ -32,6 +32,7 @@ def bake(scene, ctx, density, shots, shoot_level, resolution, profile):
             "atlas": list(solver.page_size), "pages": solver.atlas.page_count,
             "triangles": len(scene.triangles), "gpu_memory_mib": solver.gpu_memory_bytes / 2**20,
             "shots": solver.shots, "unshot_fraction": solver.progress.unshot_fraction,
+            "shooters_per_selection": shooters,
             "seconds": total, "phases": dict(solver.timings),
         }
     finally:
@@ -45,6 +46,9 @@ def main():
     parser.add_argument("--shots", type=int, default=32)
     parser.add_argument("--shoot-level", type=int, default=0, help="0: one texel per shot")
     parser.add_argument("--hemicube", type=int, default=256)
+    parser.add_argument("--shooters", type=int, nargs="+",
+                        default=[Settings().shooters_per_selection],
+                        help="shots per selection read-back (1: one by one, as the paper)")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
 
@@ -52,21 +56,24 @@ def main():
     ctx = create_context()
     device = device_name(ctx)
     print(f"device: {device}")
-    header = ("texels", "pages") + PHASES + ("profiled", "total", "shots/s")
+    header = ("texels", "shooters", "pages") + PHASES + ("profiled", "total", "shots/s")
     print(" ".join(f"{h:>11}" for h in header))
     rows = []
     # Compile the shaders once before timing anything.
-    bake(scene, ctx, min(args.densities), 2, args.shoot_level, args.hemicube, False)
-    for density in args.densities:
-        profiled = bake(scene, ctx, density, args.shots, args.shoot_level, args.hemicube, True)
-        plain = bake(scene, ctx, density, args.shots, args.shoot_level, args.hemicube, False)
+    bake(scene, ctx, min(args.densities), 2, args.shoot_level, args.hemicube, False, 1)
+    for density, shooters in ((d, k) for d in args.densities for k in args.shooters):
+        profiled = bake(scene, ctx, density, args.shots, args.shoot_level, args.hemicube, True,
+                        shooters)
+        plain = bake(scene, ctx, density, args.shots, args.shoot_level, args.hemicube, False,
+                     shooters)
         profiled["unprofiled_seconds"] = plain["seconds"]
         rows.append(profiled)
         # Preprocess and postprocess end with a read-back, so their times are real even
         # without profiling; the rest is the solve.
         solve = plain["seconds"] - plain["phases"]["preprocess"] - plain["phases"]["postprocess"]
         profiled["solve_seconds"] = solve
-        values = [profiled["texels"], profiled["pages"]] + [profiled["phases"][p] for p in PHASES] \
+        values = [profiled["texels"], shooters, profiled["pages"]] \
+            + [profiled["phases"][p] for p in PHASES] \
             + [profiled["seconds"], plain["seconds"], plain["shots"] / max(solve, 1e-9)]
         print(" ".join(f"{v:>11.4g}" if isinstance(v, float) else f"{v:>11}" for v in values))
     ctx.release()

@@ -43,6 +43,13 @@ SUBDIVISION_MIN_SHARE = 0.1
 # The adaptive shooting level coarsens a shot by one level (4x the texels) for every 4x less
 # power than the strongest patch shot had, by at most this many levels.
 MAX_COARSER_LEVELS = 2
+# One selection (an arg-max read-back, which waits for the GPU) picks up to
+# Settings.shooters_per_selection patches: the strongest block of each region of the atlas
+# whose power is at least this share of the strongest one's. Each shot then takes exactly the
+# energy it read; what its texels receive meanwhile stays unshot for a later shot.
+BATCH_MIN_SHARE = 0.25
+# The regions: the first arg-max pyramid level with at most this many texels.
+SELECTION_REGIONS = 1024
 
 
 @dataclass
@@ -71,6 +78,7 @@ class Settings:
     subdivision_shadow_min: float = 0.02
     subdivision_shadow_max: float = 0.98
     adaptive_shoot_level: bool = False  # weak shooters shoot from coarser blocks (Sec. 5.1)
+    shooters_per_selection: int = 8  # shots per GPU read-back; 1 is the paper's one by one
     profile: bool = False            # wait for the GPU after each phase for exact timings
 
     def validate(self):
@@ -90,6 +98,7 @@ class Settings:
              f"subdivision_level must be in 0..{MAX_SUBDIVISION_LEVEL}"),
             (0.0 <= self.subdivision_shadow_min < self.subdivision_shadow_max <= 1.0,
              "subdivision shadow thresholds must satisfy 0 <= min < max <= 1"),
+            (1 <= self.shooters_per_selection <= 64, "shooters_per_selection must be in 1..64"),
         ]
         for ok, message in checks:
             if not ok:
@@ -130,6 +139,7 @@ class _Shooter:
     quad: list                  # 4 world-space corners
     radiance_front: np.ndarray
     radiance_back: np.ndarray
+    unshot: np.ndarray          # (N, 4) float32: what this shot takes from each texel
 
 
 @dataclass
@@ -174,27 +184,22 @@ class Solver:
 
     # ----------------------------------------------------------------- public API
     def step(self):
-        """Shoot once: the pending lights first, then the texel patch with the most unshot
+        """Shoot once: the pending lights first, then the texel patches with the most unshot
         power. Returns False, shooting nothing, once converged or out of shots."""
         if self.finished or self.ctx is None:
             return False
+        if self.shots >= self.settings.max_shots:
+            self.finished = True
+            return False
         with using(self.ctx):
-            power, page, block, total = self._timed("selection", self._select)
-            pending = sum(float(np.mean(self._light_power(light))) for light in self._pending)
-            self._unshot_fraction = (total + pending) / self._emitted_scalar
-            self.converged = (self._unshot_fraction <= self.settings.threshold
-                              or (not self._pending and power <= 0.0))
-            if self.converged or self.shots >= self.settings.max_shots:
+            if not self._queue and not self._select_shots():
                 self.finished = True
                 return False
-            if self._pending:
-                self._shoot_light(self._pending.pop(0))
+            shot = self._queue.pop(0)
+            if isinstance(shot, _Shooter):
+                self._shoot_patch(shot)
             else:
-                shooter = self._timed("selection", self._gather_shooter, page, block, power)
-                if shooter is None:  # the GPU's float sums saw power the texels do not hold
-                    self.converged = self.finished = True
-                    return False
-                self._shoot_patch(shooter)
+                self._shoot_light(shot)
             self.shots += 1
         return True
 
@@ -252,7 +257,8 @@ class Solver:
                 absorbed += ((1.0 - maps["albedo"][..., :3]) * irradiance).reshape(-1, 3).sum(axis=0)
                 radiance = maps["unshot"][..., :3] + maps["unshot"][..., 3:4] * maps["emission"][..., :3]
                 unshot += math.pi * (radiance * area).reshape(-1, 3).sum(axis=0)
-            for light in self._pending:
+            queued = [shot for shot in self._queue if not isinstance(shot, _Shooter)]
+            for light in self._pending + queued:
                 unshot += self._light_power(light)
             return Ledger(self._emitted.copy(), absorbed, self._shot_power - received, unshot)
 
@@ -368,11 +374,15 @@ class Solver:
         self._triangle_vertices = positions.shape[0] * 3
         block = 1 << (settings.shoot_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
                                               else 0))
-        self._clear_vbo = gl.buffer(reserve=block * block * 8)
+        self._clear_vbo = gl.buffer(reserve=block * block * 24)
+        # Five RGBA32F maps of every block of a selection.
+        self._staging = gl.buffer(reserve=settings.shooters_per_selection * 5 * block * block
+                                  * 16)
         self._strongest_patch = 0.0
         self._strongest_shot = 0.0
+        self._queue = []
         self._clear_vao = gl.vertex_array(self._programs["clear"],
-                                          [(self._clear_vbo, "2f", "in_texel")])
+                                          [(self._clear_vbo, "2f 4f", "in_texel", "in_taken")])
 
         self._measure_emission()
         lights = list(scene.lights) + sky_suns(scene.sky, settings.sky_directions)
@@ -469,10 +479,11 @@ class Solver:
             textures=textures)
         block = 1 << self.settings.shoot_level
         level = (-(-size[0] // block), -(-size[1] // block))
+        # The arg-max pyramid stops at the grid of regions that selection reads back.
         while True:
             texture = gl.texture(level, 4)
             page.pyramid.append((texture, gl.framebuffer([texture])))
-            if level == (1, 1):
+            if level[0] * level[1] <= SELECTION_REGIONS:
                 break
             level = (-(-level[0] // 2), -(-level[1] // 2))
         return page
@@ -709,10 +720,33 @@ class Solver:
             self._texel_count += int(np.count_nonzero((area[..., 0] > 0) & (receives > 0)))
 
     # ----------------------------------------------------------------- selection
+    def _select_shots(self):
+        """Measure the unshot power and queue the next shots: up to shooters_per_selection
+        pending lights, or as many patches. False once converged."""
+        candidates, total = self._timed("selection", self._select)
+        pending = sum(float(np.mean(self._light_power(light))) for light in self._pending)
+        self._unshot_fraction = (total + pending) / self._emitted_scalar
+        self.converged = (self._unshot_fraction <= self.settings.threshold
+                          or (not self._pending and not candidates))
+        if self.converged:
+            return False
+        count = min(self.settings.shooters_per_selection,
+                    self.settings.max_shots - self.shots)
+        if self._pending:
+            self._queue, self._pending = self._pending[:count], self._pending[count:]
+            return True
+        self._queue = self._timed("selection", self._gather_shooters, candidates[:count])
+        # The GPU's float sums saw power the texels do not hold.
+        self.converged = not self._queue
+        return not self.converged
+
     def _select(self):
-        """Masked arg-max over the shooting level on the GPU; 4 floats read back per page."""
-        best = (0.0, None, None)
-        total = 0.0
+        """Masked arg-max over the shooting level on the GPU, down to a grid of regions that
+        is read back. Returns the total unshot power and [(power, page, block)] of the
+        strongest blocks of their regions, strongest first: those with at least
+        BATCH_MIN_SHARE of the strongest power, at most twice the batch (blocks inside
+        others are dropped later)."""
+        grids = []
         for index, page in enumerate(self._pages):
             texture, fbo = page.pyramid[0]
             fbo.use()
@@ -724,11 +758,17 @@ class Solver:
                 target.use()
                 source.use(location=0)
                 self._fullscreen["argmax"].render(moderngl.TRIANGLES, vertices=3)
-            power, x, y, page_total = np.frombuffer(page.pyramid[-1][0].read(), dtype="f4")
-            total += float(page_total)
-            if power > best[0]:
-                best = (float(power), index, (int(x), int(y)))
-        return best[0], best[1], best[2], total
+            grid = np.frombuffer(page.pyramid[-1][0].read(), dtype="f4").reshape(-1, 4)
+            grids.append(np.concatenate([grid, np.full((len(grid), 1), index, "f4")], axis=1))
+        grid = np.concatenate(grids).astype(np.float64)
+        total = float(grid[:, 3].sum())
+        strongest = grid[:, 0].max(initial=0.0)
+        if strongest <= 0.0:
+            return [], total
+        chosen = np.nonzero(grid[:, 0] >= BATCH_MIN_SHARE * strongest)[0]
+        chosen = chosen[np.argsort(-grid[chosen, 0], kind="stable")]
+        return [(grid[i, 0], int(grid[i, 4]), (int(grid[i, 1]), int(grid[i, 2])))
+                for i in chosen[:2 * self.settings.shooters_per_selection]], total
 
     # ----------------------------------------------------------------- shooting
     def _coarser_levels(self, power):
@@ -740,22 +780,54 @@ class Solver:
         ratio = self._strongest_patch / max(power, 1e-30)
         return int(min(MAX_COARSER_LEVELS, max(0.0, math.log(ratio, 4.0))))
 
-    def _gather_shooter(self, page_index, block, power):
-        """Read back the chosen block's texels and make the shooter: the coplanar part of the
-        block around its strongest texel with similar unshot radiance (blocks at coarse
-        levels may also hold texels of other charts, which keep their energy)."""
-        page = self._pages[page_index]
+    def _gather_shooters(self, candidates):
+        """Shooters of up to shooters_per_selection candidate blocks, skipping a block inside
+        one already taken (adaptive levels). Their texels are read back before any of them
+        shoots, all in one wait for the GPU."""
+        regions = []
+        for power, page_index, block in candidates:
+            region = self._block_region(page_index, block, power)
+            if not any(_overlap(region, other) for other in regions):
+                regions.append(region)
+            if len(regions) == self.settings.shooters_per_selection:
+                break
+        shooters = [self._make_shooter(region, maps)
+                    for region, maps in zip(regions, self._read_blocks(regions))]
+        return [shooter for shooter in shooters if shooter is not None]
+
+    def _read_blocks(self, regions):
+        """Per region: its position, normal, tangent, emission and unshot maps as (N, 4)
+        float64 rows, queued into one staging buffer and read back once."""
+        offset, views = 0, []
+        for page_index, x0, y0, size in regions:
+            page = self._pages[page_index]
+            width, height = min(size, self.atlas.width - x0), min(size, self.atlas.height - y0)
+            count = width * height
+            for fbo, attachment in ((page.attributes, 0), (page.attributes, 1),
+                                    (page.attributes, 2), (page.attributes, 4),
+                                    (page.receivers, 1)):
+                fbo.read_into(self._staging, viewport=(x0, y0, width, height), components=4,
+                              attachment=attachment, dtype="f4", write_offset=offset)
+                views.append((offset // 4, count))
+                offset += count * 16
+        data = np.frombuffer(self._staging.read(size=offset), dtype="f4").astype(np.float64)
+        rows = [data[start:start + 4 * count].reshape(count, 4) for start, count in views]
+        return [rows[i:i + 5] for i in range(0, len(rows), 5)]
+
+    def _block_region(self, page_index, block, power):
+        """(page, x0, y0, size) of the texels a block shoots from."""
         coarser = self._coarser_levels(power)
         size = 1 << (self.settings.shoot_level + coarser)
-        x0, y0 = (block[0] >> coarser) * size, (block[1] >> coarser) * size
-        width, height = min(size, self.atlas.width - x0), min(size, self.atlas.height - y0)
-        viewport = (x0, y0, width, height)
+        return page_index, (block[0] >> coarser) * size, (block[1] >> coarser) * size, size
 
-        def read(fbo, attachment):
-            data = fbo.read(viewport=viewport, components=4, attachment=attachment, dtype="f4")
-            return np.frombuffer(data, dtype="f4").reshape(-1, 4).astype(np.float64)
-        position, normal, tangent, emission = (read(page.attributes, i) for i in (0, 1, 2, 4))
-        unshot = read(page.receivers, 1)
+    def _make_shooter(self, region, maps):
+        """The shooter of a block from its maps: the coplanar part of the block around its
+        strongest texel with similar unshot radiance (blocks at coarse levels may also hold
+        texels of other charts, which keep their energy)."""
+        page_index, x0, y0, size = region
+        page = self._pages[page_index]
+        width = min(size, self.atlas.width - x0)
+        position, normal, tangent, emission, unshot = maps
 
         area = position[:, 3]
         front = unshot[:, :3]
@@ -783,7 +855,8 @@ class Solver:
             quad=_shooter_quad(position[members, :3] - centre, normal[members, 3], t, b,
                                total_area, centre),
             radiance_front=(front[members] * weights).sum(axis=0) / total_area,
-            radiance_back=(back[members] * weights).sum(axis=0) / total_area)
+            radiance_back=(back[members] * weights).sum(axis=0) / total_area,
+            unshot=unshot[members].astype(np.float32))
 
     def _maybe_subdivide(self, power, clip_below):
         self._strongest_shot = max(self._strongest_shot, power)
@@ -802,7 +875,7 @@ class Solver:
         self._timed("visibility", self._render_visibility, eye, shooter.frame,
                     6 if two_sided else 5, not two_sided, False)
         self._maybe_subdivide(float(np.mean(shot_power)), not two_sided)
-        self._clear_texels(shooter.page, shooter.texels)
+        self._take_unshot(shooter)
         program = self._programs["patch"]
         _set(program, "u_quad", [tuple(corner) for corner in shooter.quad])
         _set(program, "u_centre", tuple(shooter.centre))
@@ -882,10 +955,19 @@ class Solver:
         if clip:
             ctx.disable_direct(0x3000)
 
-    def _clear_texels(self, page, texels):
-        self._clear_vbo.write(texels.astype("f4").tobytes())
-        page.unshot_only.use()
-        self._clear_vao.render(moderngl.POINTS, vertices=len(texels))
+    def _take_unshot(self, shooter):
+        """Subtract what the shot took from its texels' unshot energy (exactly the values it
+        read, so energy they received since stays)."""
+        points = np.concatenate([shooter.texels.astype(np.float32), shooter.unshot], axis=1)
+        self._clear_vbo.write(points.astype("f4").tobytes())
+        shooter.page.unshot_only.use()
+        ctx = self.ctx
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_equation = moderngl.FUNC_REVERSE_SUBTRACT
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        self._clear_vao.render(moderngl.POINTS, vertices=len(points))
+        ctx.blend_equation = moderngl.FUNC_ADD
+        ctx.disable(moderngl.BLEND)
 
     def _update_receivers(self, kind):
         program = self._programs[kind]
@@ -995,6 +1077,12 @@ def _set(program, name, value):
     uniform = program.get(name, None)
     if uniform is not None:
         uniform.value = value
+
+
+def _overlap(a, b):
+    """Whether two (page, x0, y0, size) squares share a texel."""
+    return (a[0] == b[0] and a[1] < b[1] + b[3] and b[1] < a[1] + a[3]
+            and a[2] < b[2] + b[3] and b[2] < a[2] + a[3])
 
 
 def _frame_around(n):
