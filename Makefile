@@ -8,7 +8,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 
-.PHONY: bake test compare bench bench-projections extension extension-check samples clean
+.PHONY: bake test compare bench bench-equal-error bench-projections extension extension-check samples clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -44,6 +44,14 @@ compare: $(VENV)/.blender
 bench: $(VENV)/.bench
 	$(BIN)/python bench/bench_core.py --shoot-level 0 --json bench/results/core-$(DEVICE).json
 	$(BIN)/python bench/plot.py
+
+# Time to 5 %, 2 % and 1 % relative RMS against a 2 x 2048-sample Cycles reference, Luxel
+# and Cycles on this machine.
+bench-equal-error: $(VENV)/.bench
+	$(BIN)/python bench/bench_equal_error.py --scene cornell_box --density 60 --samples 2048 \
+		--exclude ceiling --json bench/results/equal-error-cornell_box-$(DEVICE).json
+	$(BIN)/python bench/bench_equal_error.py --scene office --density 6 --samples 512 \
+		--json bench/results/equal-error-office-$(DEVICE).json
 
 # The paper's Table 2 and Figure 6; sizes scaled down for software rendering by default
 # (SIZE_SCALE=1 THRESHOLD=0.01 CONVERGENCE_SIZE=256 for the paper's sizes on a GPU).

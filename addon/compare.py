@@ -49,7 +49,7 @@ def compare_with_cycles(context, options, progress=None):
     scene = context.scene
 
     progress(0.0, "Luxel bake")
-    bake = _bake_with_snapshots(context)
+    bake = bake_with_snapshots(context)
     targets = [obj for obj in scene.objects if obj.type == 'MESH' and obj.luxel.image
                is not None and obj.luxel.uv_map]
 
@@ -70,7 +70,7 @@ def compare_with_cycles(context, options, progress=None):
                        / max(sum(n for n, _ in noise_squares), 1)) ** 0.5
 
     progress(0.5, "Cycles at increasing samples")
-    cycles_curve = _cycles_curve(context, options, names, reference)
+    cycles_curve = cycles_curve(context, options, names, reference)
     luxel_curve = bake.curve(targets, names, reference)
 
     progress(0.7, f"{options.views} views")
@@ -127,7 +127,7 @@ def summary_lines(report):
 
 
 # ------------------------------------------------------------------------------ Luxel bake
-class _SnapshotBake:
+class SnapshotBake:
     """A Luxel bake that keeps the occupied texels' RGB at 1, 2, 4, ... shots and at the end,
     with the bake's own time (export included, snapshots excluded)."""
 
@@ -166,10 +166,10 @@ class _SnapshotBake:
         return points
 
 
-def _bake_with_snapshots(context):
+def bake_with_snapshots(context):
     job = BakeJob(context)
     solver = job.solver
-    bake = _SnapshotBake(job)
+    bake = SnapshotBake(job)
     snapshot_seconds = 0.0
     next_snapshot = 1
     try:
@@ -190,7 +190,7 @@ def _bake_with_snapshots(context):
 
 
 # ---------------------------------------------------------------------------------- Cycles
-def _cycles_curve(context, options, names, reference):
+def cycles_curve(context, options, names, reference, seed=1):
     """Cycles bakes at 1, 4, 16, ... samples (below the reference's), timed, with another
     seed than the reference so that their noise is independent."""
     points = []
@@ -198,7 +198,7 @@ def _cycles_curve(context, options, names, reference):
     while samples * CURVE_SAMPLES_STEP <= options.samples:
         started = time.perf_counter()
         bakes = cycles_reference(context, samples=samples, bounces=options.bounces,
-                                 objects=names, seed=1)
+                                 objects=names, seed=seed)
         seconds = time.perf_counter() - started
         pages = [bakes[n] for n in names]
         error = lightmap_error(pages, [reference[n] for n in names])
