@@ -11,12 +11,14 @@ from pathlib import Path
 
 from common import device_name, save_results  # also puts the repository on sys.path
 from native import Settings, Solver, create_context
+from native.atlas import clear_cache
 from native.gpu import using
 from native.samples import cornell_box
 from native.solver import PHASES
 
 
 def bake(scene, ctx, density, shots, shoot_level, resolution, profile, shooters):
+    clear_cache()
     start = time.perf_counter()
     solver = Solver(scene, Settings(texel_density=density, max_shots=shots, threshold=0.0,
                                     shoot_level=shoot_level, hemicube_resolution=resolution,

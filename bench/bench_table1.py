@@ -14,6 +14,7 @@ from pathlib import Path
 
 from common import device_name, load_scene, save_results  # also puts the repo on sys.path
 from native import PROJECTIONS, Settings, Solver, create_context
+from native.atlas import clear_cache
 from native.gpu import using
 
 # The paper's Table 1: shots, and its GPU element counts per size.
@@ -33,6 +34,7 @@ def charted_area(scene):
 
 
 def bake(scene, ctx, density, shots, projection, profile):
+    clear_cache()
     start = time.perf_counter()
     solver = Solver(scene, Settings(texel_density=density, max_shots=shots, threshold=0.0,
                                     hemicube_resolution=HEMICUBE, projection=projection,

@@ -2,6 +2,7 @@
 
     python bench/plot.py        # every plot: bench/results/*.png
     python bench/plot.py --table2 bench/results/projections-llvmpipe.json   # prints Markdown
+    python bench/plot.py --table1 bench/results/table1-h100.json           # prints Markdown
 """
 import argparse
 import json
@@ -172,15 +173,61 @@ def table2_markdown(path):
     print("\n".join(lines))
 
 
+def table1():
+    """The paper's Figure 1 on our scenes: per-step time of every scene and size (hemicube)."""
+    for path in sorted(RESULTS.glob("table1-*.json")):
+        run = json.loads(path.read_text())
+        rows = [row for row in run["rows"] if row["projection"] == "HEMICUBE"]
+        figure, axis = plt.subplots(figsize=(10, 4.4))
+        labels = [f"{row['scene']}\n{row['size']}\n{row['texels'] / 1e6:.2f} M" for row in rows]
+        bottom = [0.0] * len(rows)
+        for phase in PHASES:
+            values = [row["phases"][phase] for row in rows]
+            axis.bar(range(len(rows)), values, bottom=bottom, label=phase)
+            bottom = [b + v for b, v in zip(bottom, values)]
+        axis.set_xticks(range(len(rows)), labels, fontsize=7)
+        axis.set_ylabel("seconds (GPU synced after each phase)")
+        axis.set_title(f"{short_device(run['device'])}: per-step time, hemicube "
+                       f"{run['hemicube_resolution']}, the paper's shots per scene", fontsize=9)
+        axis.legend(fontsize=8)
+        figure.tight_layout()
+        figure.savefig(RESULTS / f"{path.stem}.png", dpi=110)
+
+
+def table1_markdown(path):
+    run = json.loads(path.read_text())
+    print(f"{run['device']}\n")
+    print("| scene | size | triangles | texels (paper) | shots | hemicube s | hemisphere s | "
+          "non-linear s | shots of it, hemicube s |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    groups = {}
+    for row in run["rows"]:
+        groups.setdefault((row["scene"], row["size"]), {})[row["projection"]] = row
+    for (scene, size), by_projection in groups.items():
+        cube = by_projection["HEMICUBE"]
+        solve = sum(cube["phases"][p] for p in ("selection", "visibility", "receivers"))
+        cells = [scene, size, f"{cube['triangles']:,}",
+                 f"{cube['texels']:,} ({cube['paper_elements']:,})", cube["shots"]]
+        cells += [f"{by_projection[p]['seconds']:.3f}" if p in by_projection else ""
+                  for p in ("HEMICUBE", "HEMISPHERE", "NONLINEAR")]
+        cells.append(f"{solve:.3f}")
+        print("| " + " | ".join(str(c) for c in cells) + " |")
+
+
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--table2", type=Path, metavar="PROJECTIONS_JSON",
                         help="print this bench_projections.py result as Markdown tables")
+    parser.add_argument("--table1", type=Path, metavar="TABLE1_JSON",
+                        help="print this bench_table1.py result as a Markdown table")
     args = parser.parse_args()
     if args.table2:
         table2_markdown(args.table2)
+    elif args.table1:
+        table1_markdown(args.table1)
     else:
         breakdown()
         convergence()
         projections()
         projection_convergence()
+        table1()

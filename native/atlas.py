@@ -1,6 +1,8 @@
 """Lightmap atlas: xatlas charts the receiving and emitting triangles at a texel density and
 packs them onto one or more pages. Texels follow surface area, not triangle count."""
-from dataclasses import dataclass
+from collections import OrderedDict
+from dataclasses import dataclass, replace
+import hashlib
 
 import numpy as np
 import xatlas
@@ -23,6 +25,12 @@ class Atlas:
         return self.texels / np.array([self.width, self.height], dtype=np.float64)
 
 
+# Re-bakes of unchanged geometry (new lights, materials, settings) reuse their atlas: xatlas
+# takes seconds on scenes of tens of thousands of triangles.
+CACHED_ATLASES = 4
+_cache = OrderedDict()
+
+
 def build_atlas(scene, density, max_size=4096, padding=2, charted=None):
     """Chart and pack the triangles flagged in ``charted`` (receivers and emitters by default).
 
@@ -39,6 +47,23 @@ def build_atlas(scene, density, max_size=4096, padding=2, charted=None):
     if len(chosen) == 0:
         raise SettingsError("no triangle receives a lightmap: enable 'receive' on an object")
 
+    key = _cache_key(scene, chosen, density, max_size, padding)
+    if key in _cache:
+        _cache.move_to_end(key)
+        return _copy(_cache[key])
+    result = _build(scene, chosen, density, max_size, padding)
+    _cache[key] = _copy(result)
+    while len(_cache) > CACHED_ATLASES:
+        _cache.popitem(last=False)
+    return result
+
+
+def clear_cache():
+    """Forget the cached atlases (benchmarks time xatlas every time)."""
+    _cache.clear()
+
+
+def _build(scene, chosen, density, max_size, padding):
     mesh_triangles = [chosen[scene.object_index[chosen] == obj]
                       for obj in np.unique(scene.object_index[chosen])]
     atlas = _atlas_of(scene, mesh_triangles)
@@ -71,6 +96,23 @@ def build_atlas(scene, density, max_size=4096, padding=2, charted=None):
         row += len(members)
     return Atlas(width, height, max(int(atlas.atlas_count), 1), order, page,
                  np.clip(texels, 0.0, [width, height]), float(density))
+
+
+def _cache_key(scene, chosen, density, max_size, padding):
+    """Everything the atlas depends on: the charted triangles' corners, their objects and the
+    objects' texel scales, and the packing settings."""
+    digest = hashlib.blake2b(digest_size=20)
+    for array in (scene.vertices[scene.triangles[chosen]], scene.object_index[chosen],
+                  np.asarray(scene.object_texel_scale, dtype=np.float64), chosen):
+        array = np.ascontiguousarray(array)
+        digest.update(str((array.dtype, array.shape)).encode())
+        digest.update(array.tobytes())
+    return digest.hexdigest(), float(density), int(max_size), int(padding)
+
+
+def _copy(atlas):
+    return replace(atlas, triangles=atlas.triangles.copy(), page=atlas.page.copy(),
+                   texels=atlas.texels.copy())
 
 
 def _atlas_of(scene, mesh_triangles):

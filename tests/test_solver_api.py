@@ -245,3 +245,25 @@ def test_texel_count_follows_area_and_the_object_scale():
     assert coarse == pytest.approx(16 * 16, rel=0.02)
     assert fine == pytest.approx(coarse, rel=0.02)        # 288 triangles, same texels
     assert scaled == pytest.approx(4 * coarse, rel=0.02)  # twice the density
+
+
+def test_a_rebake_of_unchanged_geometry_reuses_its_atlas_and_a_change_does_not():
+    """The cached atlas is the one xatlas makes (compared against a fresh build), a copy the
+    caller may change, and any change of what it depends on builds anew."""
+    from native import atlas as atlas_module
+    builder = SceneBuilder()
+    builder.quad("floor", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], subdivisions=2)
+    builder.quad("wall", [(0, 0, 0), (0, 1, 0), (0, 1, 1), (0, 0, 1)], subdivisions=2)
+    scene = builder.build([PointLight(position=(0.5, 0.5, 0.5), power=1.0)])
+    atlas_module.clear_cache()
+    first = atlas_module.build_atlas(scene, density=16.0)
+    first.texels[:] = -1.0                       # the caller's copy, not the cache's
+    again = atlas_module.build_atlas(scene, density=16.0)
+    atlas_module.clear_cache()
+    fresh = atlas_module.build_atlas(scene, density=16.0)
+    np.testing.assert_array_equal(again.texels, fresh.texels)
+    np.testing.assert_array_equal(again.triangles, fresh.triangles)
+    scene.vertices[scene.triangles[0, 0], 2] += 0.25     # a moved vertex
+    moved = atlas_module.build_atlas(scene, density=16.0)
+    assert not np.array_equal(moved.texels, fresh.texels)
+    assert atlas_module.build_atlas(scene, density=20.0).width > moved.width
