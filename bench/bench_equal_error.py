@@ -32,6 +32,9 @@ def main():
     parser.add_argument("--exclude", nargs="*", default=[],
                         help="objects left out of the second set of numbers")
     parser.add_argument("--json", type=Path)
+    parser.add_argument("--save-reference", type=Path, metavar="NPZ",
+                        help="also save the averaged reference, per object, for "
+                        "bench_gpu_curve.py's Luxel runs elsewhere")
     args = parser.parse_args()
 
     bpy = runner.start_blender()
@@ -84,6 +87,29 @@ def main():
                                  "equal_error": rows}
     if args.json:
         args.json.write_text(json.dumps(result, indent=2, allow_nan=False, default=_plain))
+    if args.save_reference:
+        _save_reference(args.save_reference, targets, first, second, result)
+
+
+def _save_reference(path, targets, first, second, result):
+    """Per object: its atlas page and the averaged reference over the texels Cycles covered;
+    the noise variance of that average per texel; Cycles' curves for the record."""
+    import numpy as np
+    arrays = {}
+    for obj in targets:
+        name = obj.name
+        if name not in first:
+            continue
+        covered = first[name][..., 3] > 0.5
+        rows, columns = np.nonzero(covered)
+        average = 0.5 * (first[name][covered][:, :3] + second[name][covered][:, :3])
+        difference = first[name][covered][:, :3] - second[name][covered][:, :3]
+        arrays[f"{name}/page"] = np.array(int(obj.luxel.image["luxel_page"]))
+        arrays[f"{name}/texels"] = np.stack([rows, columns], axis=1).astype(np.int32)
+        arrays[f"{name}/rgb"] = average.astype(np.float32)
+        arrays[f"{name}/variance"] = ((difference ** 2).sum(axis=1) / 4.0).astype(np.float32)
+    arrays["result"] = np.array(json.dumps(result, default=_plain))
+    np.savez_compressed(path, **arrays)
 
 
 def _average(a, b):

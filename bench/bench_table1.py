@@ -45,6 +45,7 @@ def bake(scene, ctx, density, shots, projection, profile):
         with using(ctx):
             ctx.finish()
         return {"seconds": time.perf_counter() - start, "texels": solver.texel_count,
+                "atlas_seconds": solver.atlas_seconds,
                 "shots": solver.shots, "phases": dict(solver.timings),
                 "gpu_memory_mib": solver.gpu_memory_bytes / 2**20,
                 "pages": solver.atlas.page_count}
@@ -79,6 +80,7 @@ def main():
                        "profiled_seconds": profiled["seconds"], "seconds": plain["seconds"]}
                 rows.append(row)
                 phases = " ".join(f"{p} {1000 * v:.0f}" for p, v in row["phases"].items())
+                phases += f", of which atlas {1000 * row['atlas_seconds']:.0f}"
                 print(f"{name:12} {size:6} {projection:10} {row['texels']:>9,} texels "
                       f"{shots:3} shots {row['seconds']:7.3f} s ({phases} ms, synced)",
                       flush=True)

@@ -198,8 +198,8 @@ def table1_markdown(path):
     run = json.loads(path.read_text())
     print(f"{run['device']}\n")
     print("| scene | size | triangles | texels (paper) | shots | hemicube s | hemisphere s | "
-          "non-linear s | shots of it, hemicube s |")
-    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+          "non-linear s | of it: atlas s | shots s |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     groups = {}
     for row in run["rows"]:
         groups.setdefault((row["scene"], row["size"]), {})[row["projection"]] = row
@@ -210,6 +210,7 @@ def table1_markdown(path):
                  f"{cube['texels']:,} ({cube['paper_elements']:,})", cube["shots"]]
         cells += [f"{by_projection[p]['seconds']:.3f}" if p in by_projection else ""
                   for p in ("HEMICUBE", "HEMISPHERE", "NONLINEAR")]
+        cells.append(f"{cube['atlas_seconds']:.3f}" if "atlas_seconds" in cube else "")
         cells.append(f"{solve:.3f}")
         print("| " + " | ".join(str(c) for c in cells) + " |")
 

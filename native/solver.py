@@ -305,8 +305,10 @@ class Solver:
         # Hemisphere maps are twice the hemicube's side: the same texels per radian at the zenith.
         self._map_size = settings.hemicube_resolution * (1 if settings.projection == "HEMICUBE" else 2)
 
+        started = time.perf_counter()
         self.atlas = build_atlas(scene, settings.texel_density, settings.max_atlas_size,
                                  settings.padding)
+        self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
         self._check_memory()
         gl = self._gl
         self._programs = {

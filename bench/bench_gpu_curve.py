@@ -1,0 +1,136 @@
+"""Luxel's speed-against-error curve on a machine without Blender (a GPU server), measured
+against a Cycles reference made elsewhere by `bench_equal_error.py --save-reference`:
+
+    python bench/bench_gpu_curve.py run --scene cornell_box --density 60 --threshold 0.002 \
+        --output curve-h100.npz                       # where the GPU is; no Blender needed
+    python bench/bench_gpu_curve.py compare --reference reference.npz --snapshots \
+        curve-h100.npz --json bench/results/equal-error-cornell_box-h100.json
+
+The bake is the solver's alone on the exported scene (bench/scenes/<scene>.npz: the same
+triangles, materials and lights the extension exports), so its seconds exclude Blender's
+export; the atlas comes out texel for texel as in Blender (xatlas is deterministic), which
+`compare` checks: every reference texel must be one of Luxel's."""
+import argparse
+import json
+import math
+from pathlib import Path
+import time
+
+import numpy as np
+
+from bench_equal_error import TARGETS, _time_to
+from common import device_name, load_scene
+from native import Settings, Solver, create_context
+
+
+def run(args):
+    ctx = create_context()
+    device = device_name(ctx)
+    started = time.perf_counter()
+    solver = Solver(load_scene(args.scene), Settings(texel_density=args.density,
+                                                     threshold=args.threshold,
+                                                     max_shots=1_000_000), ctx=ctx)
+    paused = 0.0
+    snapshots, masks = [], None
+    next_snapshot = 1
+
+    def snapshot():
+        nonlocal masks, paused
+        began = time.perf_counter()
+        pages = solver.result()
+        if masks is None:
+            masks = [page[..., 3] > 0.5 for page in pages]
+        snapshots.append((solver.shots, began - started - paused,
+                          [page[mask][:, :3] for page, mask in zip(pages, masks)]))
+        paused += time.perf_counter() - began
+
+    while solver.step():
+        if solver.shots >= next_snapshot:
+            snapshot()
+            next_snapshot *= 2
+    snapshot()
+    solver.release()
+    ctx.release()
+    arrays = {"device": np.array(device), "shots": np.array([s[0] for s in snapshots]),
+              "seconds": np.array([s[1] for s in snapshots])}
+    for page, mask in enumerate(masks):
+        arrays[f"mask{page}"] = mask
+        for index, (_, _, rgb) in enumerate(snapshots):
+            arrays[f"rgb{page}_{index}"] = rgb[page].astype(np.float32)
+    np.savez_compressed(args.output, **arrays)
+    print(f"{device}: {len(snapshots)} snapshots, {snapshots[-1][0]} shots in "
+          f"{snapshots[-1][1]:.3f} s")
+
+
+def compare(args):
+    reference = np.load(args.reference)
+    luxel = np.load(args.snapshots)
+    names = sorted({key.split("/")[0] for key in reference.files if "/" in key})
+    names = [name for name in names if name not in set(args.exclude)]
+    pages = {int(key[4:]): luxel[key] for key in luxel.files if key.startswith("mask")}
+    # Per page, where each occupied texel's RGB sits in the snapshot rows.
+    row_of = {}
+    for page, mask in pages.items():
+        rows = np.full(mask.shape, -1)
+        rows[mask] = np.arange(int(mask.sum()))
+        row_of[page] = rows
+    lookups, squares, variance, count = [], 0.0, 0.0, 0
+    for name in names:
+        page = int(reference[f"{name}/page"])
+        texels = reference[f"{name}/texels"]
+        rows = row_of[page][texels[:, 0], texels[:, 1]]
+        if (rows < 0).any():
+            raise SystemExit(f"'{name}': {int((rows < 0).sum())} reference texels are not "
+                             "Luxel's: the atlas differs from the one the reference was made on")
+        rgb = reference[f"{name}/rgb"].astype(np.float64)
+        lookups.append((page, rows, rgb))
+        squares += float((rgb ** 2).sum())
+        variance += float(reference[f"{name}/variance"].sum())
+        count += len(rgb)
+    magnitude, noise = math.sqrt(squares / count), variance / count
+    curve = []
+    for index, (shots, seconds) in enumerate(zip(luxel["shots"], luxel["seconds"])):
+        error = sum(float(((luxel[f"rgb{page}_{index}"][rows] - rgb) ** 2).sum())
+                    for page, rows, rgb in lookups)
+        debiased = math.sqrt(max(error / count - noise, 0.0))
+        curve.append({"shots": int(shots), "seconds": float(seconds),
+                      "rel_rms": math.sqrt(error / count) / magnitude,
+                      "rel_rms_debiased": debiased / magnitude})
+    recorded = json.loads(str(reference["result"]))
+    label = "all" if not args.exclude else "without " + " ".join(args.exclude)
+    cycles = recorded["sets"][label]["cycles"]
+    rows = []
+    for target in TARGETS:
+        luxel_time, cycles_time = _time_to(curve, target), _time_to(cycles, target)
+        rows.append({"target": target, "luxel_seconds": luxel_time,
+                     "cycles_seconds": cycles_time,
+                     "cycles_over_luxel": (cycles_time / luxel_time
+                                           if luxel_time and cycles_time else None)})
+        print(f"[{label}] {100 * target:.0f} %: Luxel {luxel_time}, Cycles {cycles_time}")
+    result = {"scene": recorded["scene"], "device": {"luxel": str(luxel["device"]),
+                                                     "cycles": "CPU (the reference's machine)"},
+              "objects": names, "reference_noise_rel": math.sqrt(noise) / magnitude,
+              "luxel": curve, "cycles": cycles, "equal_error": rows}
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=2))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    bake = commands.add_parser("run")
+    bake.add_argument("--scene", required=True)
+    bake.add_argument("--density", type=float, required=True)
+    bake.add_argument("--threshold", type=float, default=0.002)
+    bake.add_argument("--output", type=Path, required=True)
+    check = commands.add_parser("compare")
+    check.add_argument("--reference", type=Path, required=True)
+    check.add_argument("--snapshots", type=Path, required=True)
+    check.add_argument("--exclude", nargs="*", default=[])
+    check.add_argument("--json", type=Path)
+    args = parser.parse_args()
+    (run if args.command == "run" else compare)(args)
+
+
+if __name__ == "__main__":
+    main()
