@@ -45,12 +45,16 @@ bench: $(VENV)/.bench
 	$(BIN)/python bench/bench_core.py --shoot-level 0 --json bench/results/core-$(DEVICE).json
 	$(BIN)/python bench/plot.py
 
-# Time to 5 %, 2 % and 1 % relative RMS against a 2 x 2048-sample Cycles reference, Luxel
-# and Cycles on this machine.
+# Time to 5 %, 2 % and 1 % relative RMS against two averaged Cycles references, Luxel and
+# Cycles on this machine; the saved references let bench/bench_gpu_curve.py measure Luxel on a
+# GPU machine without Blender. (Office: Luxel to 5 % unshot only, ~150 s on llvmpipe.)
 bench-equal-error: $(VENV)/.bench
+	mkdir -p out
 	$(BIN)/python bench/bench_equal_error.py --scene cornell_box --density 60 --samples 2048 \
-		--exclude ceiling --json bench/results/equal-error-cornell_box-$(DEVICE).json
-	$(BIN)/python bench/bench_equal_error.py --scene office --density 6 --samples 512 \
+		--exclude ceiling --save-reference out/reference-cornell_box.npz \
+		--json bench/results/equal-error-cornell_box-$(DEVICE).json
+	$(BIN)/python bench/bench_equal_error.py --scene office --density 4 --samples 256 \
+		--threshold 0.05 --exclude ceiling --save-reference out/reference-office.npz \
 		--json bench/results/equal-error-office-$(DEVICE).json
 
 # The paper's Table 2 and Figure 6; sizes scaled down for software rendering by default
