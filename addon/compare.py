@@ -70,8 +70,8 @@ def compare_with_cycles(context, options, progress=None):
                        / max(sum(n for n, _ in noise_squares), 1)) ** 0.5
 
     progress(0.5, "Cycles at increasing samples")
-    cycles_curve = cycles_curve(context, options, names, reference)
-    luxel_curve = bake.curve(targets, names, reference)
+    cycles_points = cycles_curve(context, options, names, reference)
+    luxel_points = bake.curve(targets, names, reference)
 
     progress(0.7, f"{options.views} views")
     views = render_views(context, options.views, tuple(options.resolution),
@@ -79,7 +79,7 @@ def compare_with_cycles(context, options, progress=None):
     view_entries = [_view_entry(index, view, directory) for index, view in enumerate(views)]
 
     progress(0.95, "report")
-    curves = {"luxel": luxel_curve, "cycles": cycles_curve}
+    curves = {"luxel": luxel_points, "cycles": cycles_points}
     speed_error_plot(os.path.join(directory, "speed_error.png"), curves)
     stats = scene.luxel.stats
     report = {
