@@ -75,8 +75,9 @@ def test_compare_writes_both_files_which_parse(comparison):
 
 def test_per_object_errors_agree_with_cycles(comparison):
     """Luxel against the Cycles bake of the same texels (the independent truth), per object.
-    The ceiling is left out: its texels in the 0.1 mm gap over the light see the light's back
-    within Cycles' bake and not within Luxel's (an emitter near-field case)."""
+    The ceiling is left out: in the 0.1 mm gap over the light, light bounces between the
+    ceiling and the light's back face, which reflects in Cycles (Blender's surfaces reflect on
+    both sides) and not in Luxel (its texels receive on their front side only)."""
     _, _, report, *_ = comparison
     objects = {o["name"]: o for o in report["objects"]}
     assert set(objects) == {"floor", "ceiling", "back_wall", "red_wall", "green_wall", "light",
