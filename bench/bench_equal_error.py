@@ -17,6 +17,8 @@ from pathlib import Path
 import sys
 import time
 
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tools"))
 import blender as runner  # noqa: E402  (tools/blender.py)
 
@@ -41,7 +43,6 @@ def main():
     luxel = runner.luxel()
     compare = luxel.addon.compare
     reference_module = luxel.addon.reference
-    measures = luxel.native.compare
     bpy.ops.wm.open_mainfile(filepath=str(runner.ROOT / "sample_blends" / f"{args.scene}.blend"))
     context = bpy.context
     settings = context.scene.luxel
@@ -69,7 +70,7 @@ def main():
             continue
         names = [obj.name for obj in targets if obj.name in first and obj.name not in excluded]
         reference = {n: _average(first[n], second[n]) for n in names}
-        noise, magnitude = _noise_and_magnitude(names, first, second, measures)
+        noise, magnitude = _noise_and_magnitude(names, first, second)
         luxel_curve = _debiased(bake.curve(targets, names, reference), noise, magnitude)
         cycles_curve = _debiased(compare.cycles_curve(context, options, names, reference),
                                  noise, magnitude)
@@ -94,7 +95,6 @@ def main():
 def _save_reference(path, targets, first, second, result):
     """Per object: its atlas page and the averaged reference over the texels Cycles covered;
     the noise variance of that average per texel; Cycles' curves for the record."""
-    import numpy as np
     arrays = {}
     for obj in targets:
         name = obj.name
@@ -118,7 +118,7 @@ def _average(a, b):
     return mean
 
 
-def _noise_and_magnitude(names, first, second, measures):
+def _noise_and_magnitude(names, first, second):
     """Variance of the averaged reference per texel (RGB length squared), and its RMS value."""
     squares = difference = count = 0.0
     for name in names:
