@@ -2,6 +2,7 @@
 with Cycles, for pipelines. Progress goes to stdout; a failure prints one line to stderr and
 exits non-zero."""
 import argparse
+from dataclasses import replace
 import os
 import sys
 
@@ -9,7 +10,7 @@ import bpy
 
 from ..native import MAX_SUBDIVISION_LEVEL, LuxelError
 from .bake import BakeJob
-from .compare import CompareOptions, compare_with_cycles, summary_lines
+from .compare import compare_with_cycles, summary_lines
 from .properties import PROJECTIONS, SUBDIVISIONS
 
 EXIT_FAILED = 1
@@ -164,13 +165,10 @@ def _bake(args):
 def _compare(args):
     context = bpy.context
     _apply_bake_options(args, context.scene.luxel)
-    defaults = context.scene.luxel.comparison
-    options = CompareOptions(
-        directory=os.path.abspath(args.output),
-        samples=args.samples or defaults.samples,
-        view_samples=args.view_samples or defaults.view_samples,
-        resolution=tuple(args.resolution or defaults.resolution),
-        views=args.views or defaults.views)
+    given = {"samples": args.samples, "view_samples": args.view_samples, "views": args.views,
+             "resolution": tuple(args.resolution) if args.resolution else None}
+    options = replace(context.scene.luxel.comparison.options(os.path.abspath(args.output)),
+                      **{name: value for name, value in given.items() if value is not None})
 
     def progress(fraction, text):
         print(f"luxel: compare {100.0 * fraction:3.0f} %: {text}", flush=True)

@@ -6,7 +6,7 @@ speed-against-error curve, and write report.json, report.html and their images i
 
 The lightmaps, UV maps and stats are written exactly as a bake writes them; everything else the
 comparison changes (render settings, materials, cameras) comes back afterwards."""
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 import datetime
 import os
 import platform
@@ -19,9 +19,10 @@ import numpy as np
 from ..native import SettingsError, write_png
 from ..native.compare import error_map, lightmap_error, texel_noise
 from ..native.report import speed_error_plot, write_report
+from ..native.snapshots import Snapshots
 from ..native.views import compare_views, failure_image
 from .bake import BakeJob
-from .reference import cycles_reference, luxel_lightmap
+from .reference import cycles_reference, luxel_lightmap, receivers
 from .views import LUXEL_VIEW_SAMPLES, render_views
 from .writeback import PAGE_KEY
 
@@ -50,8 +51,7 @@ def compare_with_cycles(context, options, progress=None):
 
     progress(0.0, "Luxel bake")
     bake = bake_with_snapshots(context)
-    targets = [obj for obj in scene.objects if obj.type == 'MESH' and obj.luxel.image
-               is not None and obj.luxel.uv_map]
+    targets = receivers(scene)
 
     progress(0.3, f"Cycles reference, {options.samples} samples")
     started = time.perf_counter()
@@ -60,8 +60,7 @@ def compare_with_cycles(context, options, progress=None):
     names = [obj.name for obj in targets if obj.name in reference]
     luxel_pages = {obj.name: luxel_lightmap(obj) for obj in targets}
     overall = lightmap_error([luxel_pages[n] for n in names], [reference[n] for n in names])
-    reference_rms = overall.rms / overall.relative_rms if overall.relative_rms > 0 else 1.0
-    scale = ERROR_MAP_SCALE * reference_rms
+    scale = ERROR_MAP_SCALE * overall.reference_rms
     objects = _object_entries(names, luxel_pages, reference, scale, directory)
     # The reference's own noise is part of any error measured against it: its floor.
     noise_squares = [(o["texels"], o["reference_noise_rms"] ** 2) for o in objects
@@ -98,7 +97,7 @@ def compare_with_cycles(context, options, progress=None):
         "rms": overall.rms, "rel_rms": overall.relative_rms, "max_error": overall.max_error,
         "texels": overall.texels,
         "reference_noise_rms": reference_noise,
-        "reference_noise_rel": reference_noise / reference_rms,
+        "reference_noise_rel": reference_noise / overall.reference_rms,
         "flip_mean": _mean([v["flip_mean"] for v in view_entries]),
         "yee_fraction": _mean([float(v["yee_different"]) for v in view_entries]),
         "cycles_samples": options.samples, "cycles_seconds": reference_seconds,
@@ -128,37 +127,20 @@ def summary_lines(report):
 
 # ------------------------------------------------------------------------------ Luxel bake
 class SnapshotBake:
-    """A Luxel bake that keeps the occupied texels' RGB at 1, 2, 4, ... shots and at the end,
-    with the bake's own time (export included, snapshots excluded)."""
+    """A Luxel bake with its lightmaps kept at 1, 2, 4, ... shots and at the end
+    (native.snapshots), timed from the bake's start (export included, snapshots excluded)."""
 
     def __init__(self, job):
-        self.occupied = None
-        self.snapshots = []        # (shots, seconds, [per page (N, 3) float32])
-        self.page_shape = None
+        self.snapshots = Snapshots(job.started)
         self.device = job.solver.ctx.info.get("GL_RENDERER", "unknown")
-        settings = job.solver.settings
-        self.settings = {name: getattr(settings, name) for name in settings.__dataclass_fields__}
-
-    def take(self, solver, seconds):
-        pages = solver.result()
-        if self.occupied is None:
-            self.occupied = [page[..., 3] > 0.5 for page in pages]
-            self.page_shape = pages[0].shape
-        rgb = [page[mask][:, :3].copy() for page, mask in zip(pages, self.occupied)]
-        self.snapshots.append((solver.progress.shots, seconds, rgb))
-
-    def page(self, index, rgb):
-        full = np.zeros(self.page_shape, dtype=np.float32)
-        mask = self.occupied[index]
-        full[mask, :3] = rgb[index]
-        full[mask, 3] = 1.0
-        return full
+        self.settings = asdict(job.solver.settings)
 
     def curve(self, targets, names, reference):
         page_of = {obj.name: int(obj.luxel.image[PAGE_KEY]) for obj in targets}
         points = []
-        for shots, seconds, rgb in self.snapshots:
-            pages = [self.page(page_of[name], rgb) for name in names]
+        snapshots = self.snapshots
+        for index, (shots, seconds) in enumerate(zip(snapshots.shots, snapshots.seconds)):
+            pages = [snapshots.page(index, page_of[name]) for name in names]
             error = lightmap_error(pages, [reference[name] for name in names])
             points.append({"shots": shots, "seconds": seconds, "rms": error.rms,
                            "rel_rms": error.relative_rms,
@@ -168,24 +150,16 @@ class SnapshotBake:
 
 def bake_with_snapshots(context):
     job = BakeJob(context)
-    solver = job.solver
     bake = SnapshotBake(job)
-    snapshot_seconds = 0.0
-    next_snapshot = 1
     try:
-        while not solver.progress.finished:
-            solver.step()
-            if solver.progress.shots >= next_snapshot and not solver.progress.finished:
-                started = time.perf_counter()
-                bake.take(solver, started - job.started - snapshot_seconds)
-                snapshot_seconds += time.perf_counter() - started
-                next_snapshot *= 2
-        bake.take(solver, time.perf_counter() - job.started - snapshot_seconds)
+        while job.solver.step():
+            bake.snapshots.after_step(job.solver)
+        bake.snapshots.take(job.solver)
     except BaseException:
         job.release()
         raise
     job.finish()
-    context.scene.luxel.stats.seconds = bake.snapshots[-1][1]
+    context.scene.luxel.stats.seconds = bake.snapshots.seconds[-1]
     return bake
 
 

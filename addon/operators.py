@@ -5,7 +5,7 @@ from bpy.props import StringProperty
 
 from ..native import LuxelError
 from .bake import BakeJob
-from .compare import CompareOptions, compare_with_cycles, summary_lines
+from .compare import compare_with_cycles, summary_lines
 
 TIMER_SECONDS = 0.05
 STEP_SECONDS = 0.1       # GPU work per timer tick: long enough to progress, short for the UI
@@ -125,10 +125,7 @@ class LUXEL_OT_compare(bpy.types.Operator):
         return _can_start(cls, context)
 
     def execute(self, context):
-        settings = context.scene.luxel.comparison
-        options = CompareOptions(directory=self.directory or settings.directory,
-                                 samples=settings.samples, view_samples=settings.view_samples,
-                                 resolution=tuple(settings.resolution), views=settings.views)
+        options = context.scene.luxel.comparison.options(self.directory)
         wm = context.window_manager
         interactive = context.window is not None and not bpy.app.background
 

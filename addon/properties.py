@@ -4,6 +4,7 @@ from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty,
                        IntVectorProperty, PointerProperty, StringProperty)
 
 from ..native import MAX_SUBDIVISION_LEVEL, Settings
+from .compare import CompareOptions
 
 _DEFAULTS = Settings()
 
@@ -67,6 +68,12 @@ class LuxelComparison(bpy.types.PropertyGroup):
                                 "judges different")
     report: StringProperty(name="Report", subtype='FILE_PATH',
                            description="report.html of the last comparison")
+
+    def options(self, directory=""):
+        """The comparison these settings ask for, into ``directory`` (default: the folder)."""
+        return CompareOptions(directory=directory or self.directory, samples=self.samples,
+                              view_samples=self.view_samples,
+                              resolution=tuple(self.resolution), views=self.views)
 
 
 class LuxelSceneSettings(bpy.types.PropertyGroup):

@@ -51,8 +51,7 @@ def main():
     settings.max_shots = 1_000_000
 
     bake = compare.bake_with_snapshots(context)
-    targets = [obj for obj in context.scene.objects if obj.type == 'MESH'
-               and obj.luxel.image is not None and obj.luxel.uv_map]
+    targets = reference_module.receivers(context.scene)
     started = time.perf_counter()
     first = reference_module.cycles_reference(context, samples=args.samples, seed=11)
     second = reference_module.cycles_reference(context, samples=args.samples, seed=12)

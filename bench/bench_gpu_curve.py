@@ -21,45 +21,30 @@ import numpy as np
 from bench_equal_error import TARGETS, _time_to
 from common import device_name, load_scene
 from native import Settings, Solver, create_context
+from native.snapshots import Snapshots
 
 
 def run(args):
     ctx = create_context()
     device = device_name(ctx)
-    started = time.perf_counter()
+    snapshots = Snapshots(time.perf_counter())
     solver = Solver(load_scene(args.scene), Settings(texel_density=args.density,
                                                      threshold=args.threshold,
                                                      max_shots=1_000_000), ctx=ctx)
-    paused = 0.0
-    snapshots, masks = [], None
-    next_snapshot = 1
-
-    def snapshot():
-        nonlocal masks, paused
-        began = time.perf_counter()
-        pages = solver.result()
-        if masks is None:
-            masks = [page[..., 3] > 0.5 for page in pages]
-        snapshots.append((solver.shots, began - started - paused,
-                          [page[mask][:, :3] for page, mask in zip(pages, masks)]))
-        paused += time.perf_counter() - began
-
     while solver.step():
-        if solver.shots >= next_snapshot:
-            snapshot()
-            next_snapshot *= 2
-    snapshot()
+        snapshots.after_step(solver)
+    snapshots.take(solver)
     solver.release()
     ctx.release()
-    arrays = {"device": np.array(device), "shots": np.array([s[0] for s in snapshots]),
-              "seconds": np.array([s[1] for s in snapshots])}
-    for page, mask in enumerate(masks):
+    arrays = {"device": np.array(device), "shots": np.array(snapshots.shots),
+              "seconds": np.array(snapshots.seconds)}
+    for page, mask in enumerate(snapshots.masks):
         arrays[f"mask{page}"] = mask
-        for index, (_, _, rgb) in enumerate(snapshots):
-            arrays[f"rgb{page}_{index}"] = rgb[page].astype(np.float32)
+        for index, rgb in enumerate(snapshots.rgb):
+            arrays[f"rgb{page}_{index}"] = rgb[page]
     np.savez_compressed(args.output, **arrays)
-    print(f"{device}: {len(snapshots)} snapshots, {snapshots[-1][0]} shots in "
-          f"{snapshots[-1][1]:.3f} s")
+    print(f"{device}: {len(snapshots.shots)} snapshots, {snapshots.shots[-1]} shots in "
+          f"{snapshots.seconds[-1]:.3f} s")
 
 
 def compare(args):

@@ -10,9 +10,10 @@ NORMAL_MEDIAN_ABSOLUTE = 0.6744897501960817  # median of |x| for a standard norm
 @dataclass
 class LightmapError:
     rms: float        # eq. 1: root mean square length of the RGB difference
-    relative_rms: float  # rms divided by the reference's root mean square RGB length
+    relative_rms: float  # rms divided by reference_rms
     max_error: float  # largest RGB difference length
     texels: int       # texels compared
+    reference_rms: float  # the reference's root mean square RGB length over those texels
 
 
 def lightmap_error(pages, reference_pages):
@@ -36,7 +37,7 @@ def lightmap_error(pages, reference_pages):
     rms = (squares / count) ** 0.5
     reference_rms = (reference_squares / count) ** 0.5
     return LightmapError(rms, rms / reference_rms if reference_rms > 0 else float("inf"),
-                         largest, count)
+                         largest, count, reference_rms)
 
 
 def error_map(page, reference, scale):

@@ -327,7 +327,7 @@ class Solver:
                                     "visibility_nonlinear.geom"),
             "patch": gl.program("fullscreen.vert", "receive_patch.frag"),
             "light": gl.program("fullscreen.vert", "receive_light.frag"),
-            "clear": gl.program("clear_texels.vert", "clear_texels.frag"),
+            "take": gl.program("take_unshot.vert", "take_unshot.frag"),
             "resolve": gl.program("fullscreen.vert", "resolve.frag"),
             "dilate": gl.program("fullscreen.vert", "dilate.frag"),
         }
@@ -376,15 +376,15 @@ class Solver:
         self._triangle_vertices = positions.shape[0] * 3
         block = 1 << (settings.shoot_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
                                               else 0))
-        self._clear_vbo = gl.buffer(reserve=block * block * 24)
+        self._taken_vbo = gl.buffer(reserve=block * block * 24)
         # Five RGBA32F maps of every block of a selection.
         self._staging = gl.buffer(reserve=settings.shooters_per_selection * 5 * block * block
                                   * 16)
         self._strongest_patch = 0.0
         self._strongest_shot = 0.0
         self._queue = []
-        self._clear_vao = gl.vertex_array(self._programs["clear"],
-                                          [(self._clear_vbo, "2f 4f", "in_texel", "in_taken")])
+        self._taken_vao = gl.vertex_array(self._programs["take"],
+                                          [(self._taken_vbo, "2f 4f", "in_texel", "in_taken")])
 
         self._measure_emission()
         lights = list(scene.lights) + sky_suns(scene.sky, settings.sky_directions)
@@ -414,7 +414,7 @@ class Solver:
             "hemisphere_tessellated": {"u_resolution": float(self._map_size)},
             "patch": receivers,
             "light": receivers,
-            "clear": {"u_atlas_size": size},
+            "take": {"u_atlas_size": size},
             "resolve": {"u_position": 0, "u_albedo": 1, "u_irradiance": 2},
             "count": {**receivers, "u_atlas_size": size},
             "level": {**receivers, "u_atlas_size": size},
@@ -737,7 +737,7 @@ class Solver:
         if self._pending:
             self._queue, self._pending = self._pending[:count], self._pending[count:]
             return True
-        self._queue = self._timed("selection", self._gather_shooters, candidates[:count])
+        self._queue = self._timed("selection", self._gather_shooters, candidates, count)
         # The GPU's float sums saw power the texels do not hold.
         self.converged = not self._queue
         return not self.converged
@@ -782,16 +782,16 @@ class Solver:
         ratio = self._strongest_patch / max(power, 1e-30)
         return int(min(MAX_COARSER_LEVELS, max(0.0, math.log(ratio, 4.0))))
 
-    def _gather_shooters(self, candidates):
-        """Shooters of up to shooters_per_selection candidate blocks, skipping a block inside
-        one already taken (adaptive levels). Their texels are read back before any of them
-        shoots, all in one wait for the GPU."""
+    def _gather_shooters(self, candidates, count):
+        """Shooters of up to ``count`` candidate blocks, strongest first, skipping a block
+        inside one already taken (adaptive levels). Their texels are read back before any of
+        them shoots, all in one wait for the GPU."""
         regions = []
         for power, page_index, block in candidates:
             region = self._block_region(page_index, block, power)
             if not any(_overlap(region, other) for other in regions):
                 regions.append(region)
-            if len(regions) == self.settings.shooters_per_selection:
+            if len(regions) == count:
                 break
         shooters = [self._make_shooter(region, maps)
                     for region, maps in zip(regions, self._read_blocks(regions))]
@@ -961,13 +961,13 @@ class Solver:
         """Subtract what the shot took from its texels' unshot energy (exactly the values it
         read, so energy they received since stays)."""
         points = np.concatenate([shooter.texels.astype(np.float32), shooter.unshot], axis=1)
-        self._clear_vbo.write(points.astype("f4").tobytes())
+        self._taken_vbo.write(points.astype("f4").tobytes())
         shooter.page.unshot_only.use()
         ctx = self.ctx
         ctx.enable(moderngl.BLEND)
         ctx.blend_equation = moderngl.FUNC_REVERSE_SUBTRACT
         ctx.blend_func = moderngl.ONE, moderngl.ONE
-        self._clear_vao.render(moderngl.POINTS, vertices=len(points))
+        self._taken_vao.render(moderngl.POINTS, vertices=len(points))
         ctx.blend_equation = moderngl.FUNC_ADD
         ctx.disable(moderngl.BLEND)
 

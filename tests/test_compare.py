@@ -32,6 +32,7 @@ def test_a_known_perturbation_gives_its_analytic_rms():
     assert error.rms == pytest.approx(d * np.sqrt(3) / 2)
     assert error.max_error == pytest.approx(d * np.sqrt(3))
     assert error.relative_rms == pytest.approx(error.rms / (0.5 * np.sqrt(3)))
+    assert error.reference_rms == pytest.approx(0.5 * np.sqrt(3))
 
 
 def test_mismatched_or_disjoint_lightmaps_are_refused():
