@@ -3,6 +3,7 @@ packs them onto one or more pages. Texels follow surface area, not triangle coun
 from collections import OrderedDict
 from dataclasses import dataclass, replace
 import hashlib
+import math
 
 import numpy as np
 import xatlas
@@ -19,6 +20,7 @@ class Atlas:
     page: np.ndarray        # (C,) page of each charted triangle
     texels: np.ndarray      # (C, 3, 2) corner positions in texels, texel i spans [i, i+1)
     density: float
+    unpacked: np.ndarray = None  # scene triangles xatlas left out (too small): no texels
 
     def uv(self):
         """Corner coordinates normalised to [0, 1] on their page (v up, as Blender's UVs)."""
@@ -28,6 +30,7 @@ class Atlas:
 # Re-bakes of unchanged geometry (new lights, materials, settings) reuse their atlas: xatlas
 # takes seconds on scenes of tens of thousands of triangles.
 CACHED_ATLASES = 4
+MIN_XATLAS_AREA = 1e-3   # smallest triangle area handed to xatlas, in its units
 _cache = OrderedDict()
 
 
@@ -66,17 +69,18 @@ def clear_cache():
 def _build(scene, chosen, density, max_size, padding):
     mesh_triangles = [chosen[scene.object_index[chosen] == obj]
                       for obj in np.unique(scene.object_index[chosen])]
-    atlas = _atlas_of(scene, mesh_triangles)
+    units = _units_per_metre(scene, chosen, density)
+    atlas = _atlas_of(scene, mesh_triangles, units)
 
     chart_options = xatlas.ChartOptions()
     pack_options = xatlas.PackOptions()
-    pack_options.texels_per_unit = float(density)
+    pack_options.texels_per_unit = float(density) / units
     pack_options.padding = int(padding)
     pack_options.bilinear = True
     pack_options.max_chart_size = int(max_size - 2 * padding - 2)
     atlas.generate(chart_options, pack_options)
     if atlas.width > max_size or atlas.height > max_size:
-        atlas = _atlas_of(scene, mesh_triangles)
+        atlas = _atlas_of(scene, mesh_triangles, units)
         pack_options.resolution = int(max_size)
         atlas.generate(chart_options, pack_options)
 
@@ -94,8 +98,11 @@ def _build(scene, chosen, density, max_size, padding):
         texels[row:row + len(members)] = corners * [width, height] - 0.5
         page[row:row + len(members)] = pages[indices.reshape(-1, 3)[:, 0]]
         row += len(members)
-    return Atlas(width, height, max(int(atlas.atlas_count), 1), order, page,
-                 np.clip(texels, 0.0, [width, height]), float(density))
+    page_count = max(int(atlas.atlas_count), 1)
+    packed = (page >= 0) & (page < page_count)   # xatlas marks a face it dropped 2^32 - 1
+    return Atlas(width, height, page_count, order[packed], page[packed],
+                 np.clip(texels[packed], 0.0, [width, height]), float(density),
+                 unpacked=order[~packed])
 
 
 def _cache_key(scene, chosen, density, max_size, padding):
@@ -112,15 +119,24 @@ def _cache_key(scene, chosen, density, max_size, padding):
 
 def _copy(atlas):
     return replace(atlas, triangles=atlas.triangles.copy(), page=atlas.page.copy(),
-                   texels=atlas.texels.copy())
+                   texels=atlas.texels.copy(), unpacked=atlas.unpacked.copy())
 
 
-def _atlas_of(scene, mesh_triangles):
+def _units_per_metre(scene, chosen, density):
+    """The scale meshes are handed to xatlas in: texels, or finer where a triangle would be
+    below xatlas's fixed smallest face area (1.2e-7 units^2), which it drops however many
+    texels it would cover (a 0.1 mm triangle at 0.5 texels per metre)."""
+    scales = np.asarray(scene.object_texel_scale, dtype=np.float64)[scene.object_index[chosen]]
+    smallest = float(np.min(scene.triangle_area[chosen] * scales ** 2))
+    return max(float(density), math.sqrt(MIN_XATLAS_AREA / smallest))
+
+
+def _atlas_of(scene, mesh_triangles, units):
     atlas = xatlas.Atlas()
     for members in mesh_triangles:
         used, local = np.unique(scene.triangles[members], return_inverse=True)
         # xatlas sizes charts by surface area: scaling an object's copy scales its texels.
-        scale = scene.object_texel_scale[int(scene.object_index[members[0]])]
+        scale = units * scene.object_texel_scale[int(scene.object_index[members[0]])]
         atlas.add_mesh((scene.vertices[used] * scale).astype(np.float32),
                        local.reshape(-1, 3).astype(np.uint32))
     return atlas

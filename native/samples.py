@@ -47,7 +47,7 @@ class SceneBuilder:
                     self._object_index.append(obj)
         return self
 
-    def box(self, name, top, bottom_y, albedo):
+    def box(self, name, top, bottom_y, albedo, emission=(0.0, 0.0, 0.0)):
         """A block standing on y = bottom_y whose top face has the 4 given corners (the
         Cornell data's form), with four sides and the top; counter-clockwise seen from above."""
         top = [np.asarray(p, dtype=np.float64) for p in top]
@@ -55,7 +55,7 @@ class SceneBuilder:
         up = np.cross(top[1] - top[0], top[2] - top[0])
         if up[1] < 0:
             top = top[::-1]
-        self.quad(name, top, albedo)
+        self.quad(name, top, albedo, emission, two_sided=False)
         for i in range(4):
             a, b = top[i], top[(i + 1) % 4]
             a0, b0 = a.copy(), b.copy()
@@ -64,7 +64,7 @@ class SceneBuilder:
             normal = np.cross(side[1] - side[0], side[2] - side[0])
             if normal @ ((a + b) / 2 - centre) < 0:
                 side = side[::-1]
-            self.quad(name, side, albedo)
+            self.quad(name, side, albedo, emission, two_sided=False)
         return self
 
     def build(self, lights=(), sky=(0.0, 0.0, 0.0)):

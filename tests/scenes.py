@@ -24,18 +24,21 @@ def perpendicular_squares(radiance, albedo=0.5):
             .build())
 
 
+# The unit cube's faces, each facing inwards.
+CUBE_FACES = {
+    "bottom": [(0, 0, 0), (0, 0, 1), (1, 0, 1), (1, 0, 0)],
+    "top": [(0, 1, 0), (1, 1, 0), (1, 1, 1), (0, 1, 1)],
+    "left": [(0, 0, 0), (0, 1, 0), (0, 1, 1), (0, 0, 1)],
+    "right": [(1, 0, 0), (1, 0, 1), (1, 1, 1), (1, 1, 0)],
+    "front": [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)],
+    "back": [(0, 0, 1), (0, 1, 1), (1, 1, 1), (1, 0, 1)],
+}
+
+
 def furnace_cube(albedo, radiance=1.0):
     """Closed unit cube, every face emitting `radiance` inwards and reflecting `albedo`."""
-    faces = {
-        "bottom": [(0, 0, 0), (0, 0, 1), (1, 0, 1), (1, 0, 0)],
-        "top": [(0, 1, 0), (1, 1, 0), (1, 1, 1), (0, 1, 1)],
-        "left": [(0, 0, 0), (0, 1, 0), (0, 1, 1), (0, 0, 1)],
-        "right": [(1, 0, 0), (1, 0, 1), (1, 1, 1), (1, 1, 0)],
-        "front": [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)],
-        "back": [(0, 0, 1), (0, 1, 1), (1, 1, 1), (1, 0, 1)],
-    }
     builder = SceneBuilder()
-    for name, corners in faces.items():
+    for name, corners in CUBE_FACES.items():
         builder.quad(name, corners, (albedo,) * 3, (radiance,) * 3, two_sided=False)
     return builder.build()
 
