@@ -1,23 +1,41 @@
 """One bake, as the operator and the command line run it: export, solve step by step, write
-back. The .blend changes only in finish(); cancel() and failures leave it untouched."""
+back. The .blend changes only in finish(); cancel() and failures leave it untouched. Whatever
+fails is raised as a LuxelError naming what failed, so callers catch that alone."""
+from contextlib import contextmanager
 import math
 import time
 
-from ..native import SceneError, Solver
+from ..native import LuxelError, SceneError, Solver
 from . import display
 from .export import export_scene
-from .writeback import write_back
+from .writeback import lightmap_directory, write_back
+
+GPU_FIX = "update the GPU driver or lower the texel density (Render properties > Luxel Lightmaps)"
+BUG_FIX = "report it as a bug"
+
+
+class BakeError(LuxelError):
+    """A failure that is not the input's: a GL error from moderngl, a bug."""
 
 
 class BakeJob:
     def __init__(self, context):
         self.scene = context.scene
         self.started = time.perf_counter()
-        self.export = export_scene(context)
+        with _failures_named("exporting the scene", BUG_FIX):
+            self.export = export_scene(context)
         if not self.export.receivers:
             raise SceneError("no object gets a lightmap: enable 'Receive Lightmap' on a "
                              "visible mesh (Object properties > Luxel)")
-        self.solver = Solver(self.export.scene, self.scene.luxel.solver_settings())
+        if self.scene.luxel.output == 'FILES':
+            lightmap_directory(self.scene)      # refused now rather than after the bake
+        with _failures_named("starting the GPU solver", GPU_FIX):
+            self.solver = Solver(self.export.scene, self.scene.luxel.solver_settings())
+        for name in sorted({self.export.scene.object_name(triangle)
+                            for triangle in self.solver.atlas.unpacked}):
+            self.export.warnings.append(f"'{name}': some triangles are too small to chart at "
+                                        "this texel density: they cast shadows but get no "
+                                        "lightmap; scale them up or raise the density")
 
     @property
     def warnings(self):
@@ -26,8 +44,9 @@ class BakeJob:
     def step(self, seconds=0.1):
         """Shoot for about ``seconds``; True when the bake has converged or hit max shots."""
         deadline = time.perf_counter() + seconds
-        while not self.solver.progress.finished and time.perf_counter() < deadline:
-            self.solver.step()
+        with _failures_named("the GPU solver", GPU_FIX):
+            while not self.solver.progress.finished and time.perf_counter() < deadline:
+                self.solver.step()
         return self.solver.progress.finished
 
     def fraction(self):
@@ -51,9 +70,11 @@ class BakeJob:
     def finish(self):
         """Write the lightmaps, UV maps and stats into the .blend and free the GPU."""
         try:
-            pages = self.solver.result()
+            with _failures_named("reading the lightmaps from the GPU", GPU_FIX):
+                pages = self.solver.result()
             progress = self.solver.progress
-            images = write_back(self.scene, self.export, self.solver.atlas, pages)
+            with _failures_named("writing the lightmaps", BUG_FIX):
+                images = write_back(self.scene, self.export, self.solver.atlas, pages)
             settings = self.scene.luxel
             settings["material_emission"] = {name: list(value) for name, value in
                                              self.export.emission_of_material.items()}
@@ -71,3 +92,17 @@ class BakeJob:
 
     def release(self):
         self.solver.release()
+
+
+@contextmanager
+def _failures_named(what, fix):
+    """Luxel's own errors already name the object and the fix; any other becomes a BakeError
+    naming what failed."""
+    try:
+        yield
+    except LuxelError:
+        raise
+    except Exception as error:
+        raise BakeError(f"{what} failed ({type(error).__name__}: {error}); the file was left "
+                        f"as it was. Bake again; if it fails again, {fix}") from error
+

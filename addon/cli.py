@@ -3,6 +3,7 @@ with Cycles, for pipelines. Progress goes to stdout; a failure prints one line t
 exits non-zero."""
 import argparse
 from dataclasses import replace
+import math
 import os
 import sys
 
@@ -62,6 +63,8 @@ def _add_bake_options(parser):
                         help="ADAPTIVE refines triangles whose shadowed share is in [MIN, MAX]")
     parser.add_argument("--adaptive-shoot-level", action="store_true",
                         help="weak shooters shoot from coarser blocks")
+    parser.add_argument("--ambient", action="store_true",
+                        help="add the energy left unshot as even ambient light")
     parser.add_argument("--shots", type=int, help="stop after this many shots")
     parser.add_argument("--threshold", type=float, help="stop at this unshot energy fraction")
     parser.add_argument("--density", type=float, help="lightmap texels per metre")
@@ -87,8 +90,8 @@ def _check(args):
         raise _UsageError("--shots must be 1 or more")
     if args.threshold is not None and not 0.0 <= args.threshold < 1.0:
         raise _UsageError("--threshold must be in [0, 1), e.g. 0.01")
-    if args.density is not None and not args.density > 0.0:
-        raise _UsageError("--density must be a positive number of texels per metre")
+    if args.density is not None and not 0.0 < args.density < math.inf:
+        raise _UsageError("--density must be a positive number of texels per metre, e.g. 20")
     if (args.subdivision_level is not None
             and not 1 <= args.subdivision_level <= MAX_SUBDIVISION_LEVEL):
         raise _UsageError(f"--subdivision-level must be in 1..{MAX_SUBDIVISION_LEVEL}")
@@ -121,6 +124,8 @@ def _apply_bake_options(args, settings):
         settings.subdivision_shadow_min, settings.subdivision_shadow_max = args.shadow_range
     if args.adaptive_shoot_level:
         settings.adaptive_shoot_level = True
+    if args.ambient:
+        settings.ambient = True
     if args.shots is not None:
         settings.max_shots = args.shots
     if args.threshold is not None:

@@ -146,6 +146,9 @@ class _Exporter:
             return
         try:
             if mesh is None or not len(mesh.polygons):
+                if original.type == 'MESH':
+                    self.warn(f"'{name}' is a mesh without faces: it renders nothing and was "
+                              "skipped (add faces, or hide it from render)")
                 return
             wants_receive = original.luxel.receive
             receive = wants_receive and self._can_receive(obj, mesh, name, is_instance)
@@ -199,6 +202,11 @@ class _Exporter:
                                    where=lengths > 0)
         if np.linalg.det(linear) < 0:       # mirrored: keep the front faces in front
             loops = loops[:, ::-1].copy()
+        usable = self._usable_triangles(positions[loop_vertex[loops]], name)
+        if not usable.any():
+            return
+        loops, material_index = loops[usable], material_index[usable]
+        triangles_count = len(loops)
 
         # One solver vertex per (mesh vertex, corner normal): sharp edges split, smooth ones
         # stay shared so that charts stay connected.
@@ -214,6 +222,10 @@ class _Exporter:
         slots = [slot.material for slot in obj.material_slots] or [None]
         infos = [self._material(material) for material in slots]
         material_index = np.clip(material_index, 0, len(infos) - 1)
+        if any(slots[slot] is None for slot in np.unique(material_index)):
+            self.warn(f"'{name}' has faces without a material (no material, or an empty "
+                      "slot): they are baked as Blender's default grey, albedo "
+                      f"{DEFAULT_ALBEDO[0]}; assign a material to choose their colour")
         albedo = np.array([info.albedo for info in infos])[material_index]
         emission = np.array([info.emission for info in infos])[material_index]
         texture_index = np.array([info.texture for info in infos])[material_index]
@@ -234,6 +246,27 @@ class _Exporter:
                                    True, receive, True, albedo_uv, texture_index)
         if receive:
             self.receivers.append(Receiver(name, object_index, first, loops))
+
+    def _usable_triangles(self, corners, name):
+        """Triangles the solver accepts: finite corners and an area above native.Scene's
+        degenerate limit. The others are skipped with one warning naming the object."""
+        finite = np.isfinite(corners).all(axis=(1, 2))
+        degenerate = finite & _degenerate(np.where(finite[:, None, None], corners, 0.0))
+        usable = finite & ~degenerate
+        if usable.all():
+            return usable
+        found = ", ".join(f"{count} {what}" for count, what in (
+            (int(degenerate.sum()), "with zero area"),
+            (int((~finite).sum()), "with a vertex that is not a finite number")) if count)
+        fix = ("fix the mesh in Edit Mode: Mesh > Clean Up > Merge by Distance and Delete "
+               "Loose, and delete vertices at invalid positions")
+        if usable.any():
+            self.warn(f"'{name}': {int((~usable).sum())} of its {len(usable)} triangles were "
+                      f"skipped ({found}); {fix}")
+        else:
+            self.warn(f"'{name}' was skipped: none of its triangles can be baked ({found}); "
+                      f"{fix}")
+        return usable
 
     def _uv_layer(self, mesh, uv_map, object_name, material):
         layers = mesh.uv_layers
@@ -322,6 +355,9 @@ class _Exporter:
             if pixels.max() > MAX_ALBEDO:
                 self.warn(f"image '{image.name}' has colours of 1 or more; they are lowered to "
                           f"{MAX_ALBEDO} (a diffuse surface cannot reflect all light)")
+            if pixels.min() < 0.0:
+                self.warn(f"image '{image.name}' has negative colours; they are raised to 0 (a "
+                          "surface cannot reflect negative light)")
             self.textures.append(np.clip(pixels, 0.0, MAX_ALBEDO))
             self.texture_of_image[image.name] = len(self.textures) - 1
         return self.texture_of_image[image.name]
@@ -330,8 +366,11 @@ class _Exporter:
         if colour.is_linked or strength.is_linked:
             self.warn(f"material '{material.name}': emission driven by other nodes is "
                       "approximated by the sockets' own values")
-        value = np.array(colour.default_value[:3]) * float(strength.default_value)
-        return np.maximum(value, 0.0)
+        strength = float(strength.default_value)
+        if strength < 0.0:
+            self.warn(f"material '{material.name}': a negative emission strength is raised to "
+                      "0 (light cannot be negative); set it to 0 or more")
+        return np.maximum(np.array(colour.default_value[:3]), 0.0) * max(strength, 0.0)
 
     # ------------------------------------------------------------------- lights
     def add_light(self, obj, matrix):
@@ -341,6 +380,9 @@ class _Exporter:
         if getattr(light, "use_temperature", False):
             colour = colour * np.array(light.temperature_color[:3])
         power = float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
+        if power < 0.0:
+            self.warn(f"light '{name}' has a negative power and is left out (light cannot be "
+                      "negative); set its power to 0 or more")
         if power <= 0.0 or colour.max() <= 0.0:
             return
         position = matrix[:3, 3]
@@ -472,6 +514,15 @@ def _principled_diffuse_share(node):
     f0 = ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0 * value("Specular IOR Level", 0.5)
     share = (1.0 - value("Metallic", 0.0)) * (1.0 - value("Transmission Weight", 0.0))
     return share * (1.0 - min(max(f0, 0.0), 1.0))
+
+
+def _degenerate(corners):
+    """native.Scene's test for a zero-area triangle, which it refuses: an area at most 1e-7
+    of the longest edge squared."""
+    doubled = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    area = 0.5 * np.linalg.norm(doubled, axis=1)
+    edge = np.max(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2), axis=1)
+    return area <= 1e-7 * np.maximum(edge, 1e-30) ** 2
 
 
 def _clamp_albedo(colour, material, exporter):

@@ -1,5 +1,6 @@
 """``luxel.bake``: modal with a progress bar from the UI (Esc cancels), synchronous from scripts
-and in background mode. Luxel's typed errors become reports naming the object and the fix."""
+and in background mode. A bake's failures (all LuxelErrors, see bake.py) become reports naming
+the object and the fix, with the GPU freed and the file as it was."""
 import bpy
 from bpy.props import StringProperty
 
@@ -40,11 +41,9 @@ class LUXEL_OT_bake(bpy.types.Operator):
         try:
             while not job.step(seconds=1.0):
                 pass
-            return self._finish(job)
         except LuxelError as error:
-            job.release()
-            self.report({'ERROR'}, str(error))
-            return {'CANCELLED'}
+            return self._fail(job, error)
+        return self._finish(job)
 
     def invoke(self, context, event):
         if bpy.app.background or context.window is None:
@@ -56,7 +55,7 @@ class LUXEL_OT_bake(bpy.types.Operator):
         self._timer = wm.event_timer_add(TIMER_SECONDS, window=context.window)
         wm.progress_begin(0, 1000)
         wm.modal_handler_add(self)
-        type(self)._modal_running = True
+        LUXEL_OT_bake._modal_running = True
         return {'RUNNING_MODAL'}
 
     def modal(self, context, event):
@@ -71,9 +70,7 @@ class LUXEL_OT_bake(bpy.types.Operator):
             done = self._job.step(STEP_SECONDS)
         except LuxelError as error:
             self._end_modal(context)
-            self._job.release()
-            self.report({'ERROR'}, str(error))
-            return {'CANCELLED'}
+            return self._fail(self._job, error)
         context.window_manager.progress_update(int(1000 * self._job.fraction()))
         context.workspace.status_text_set(self._job.status() + "  (Esc to cancel)")
         if not done:
@@ -95,15 +92,19 @@ class LUXEL_OT_bake(bpy.types.Operator):
         try:
             job.finish()
         except LuxelError as error:
-            self.report({'ERROR'}, str(error))
-            return {'CANCELLED'}
+            return self._fail(job, error)
         stats = job.scene.luxel.stats
         self.report({'INFO'}, f"Luxel: {stats.texels:,} texels, {stats.shots} shots, "
                               f"{stats.unshot:.2f} % unshot, {stats.seconds:.1f} s")
         return {'FINISHED'}
 
+    def _fail(self, job, error):
+        job.release()
+        self.report({'ERROR'}, str(error))
+        return {'CANCELLED'}
+
     def _end_modal(self, context):
-        type(self)._modal_running = False
+        LUXEL_OT_bake._modal_running = False
         wm = context.window_manager
         wm.event_timer_remove(self._timer)
         wm.progress_end()

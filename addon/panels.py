@@ -18,6 +18,7 @@ class LUXEL_PT_render(bpy.types.Panel):
         column.prop(settings, "texel_density")
         column.prop(settings, "threshold")
         column.prop(settings, "max_shots")
+        column.prop(settings, "ambient")
         column.prop(settings, "shoot_level")
         column.prop(settings, "adaptive_shoot_level", text="Adaptive")
         column.prop(settings, "max_atlas_size")

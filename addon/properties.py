@@ -108,6 +108,10 @@ class LuxelSceneSettings(bpy.types.PropertyGroup):
                                        default=_DEFAULTS.adaptive_shoot_level,
                                        description="Shooters with little unshot energy shoot "
                                        "from coarser blocks of texels: fewer, larger shots")
+    ambient: BoolProperty(name="Ambient Term", default=_DEFAULTS.ambient,
+                          description="Add the energy still unshot at the end as even ambient "
+                          "light (an estimate, like the unshot share it stands for): bright "
+                          "closed rooms look converged far sooner")
     neighbour_visibility: BoolProperty(name="Neighbour Visibility",
                                        default=_DEFAULTS.neighbour_visibility,
                                        description="A receiver is visible when any of the 3x3 "
@@ -141,7 +145,7 @@ class LuxelSceneSettings(bpy.types.PropertyGroup):
                         subdivision=self.subdivision, subdivision_level=self.subdivision_level,
                         subdivision_shadow_min=self.subdivision_shadow_min,
                         subdivision_shadow_max=self.subdivision_shadow_max,
-                        adaptive_shoot_level=self.adaptive_shoot_level)
+                        adaptive_shoot_level=self.adaptive_shoot_level, ambient=self.ambient)
 
 
 class LuxelObjectSettings(bpy.types.PropertyGroup):

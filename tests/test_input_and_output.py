@@ -90,6 +90,26 @@ def test_too_many_texels_reports_memory_and_a_density_that_fits(ctx, gl_clean):
     solver.release()
 
 
+def test_an_absurd_density_is_refused_before_xatlas_charts_it(ctx, gl_clean, monkeypatch):
+    """At 10^6 texels per metre xatlas would chart for hours; the surface area alone shows
+    the memory would not do, and the density suggested is one whose atlas was checked."""
+    import native.solver
+    charted = []
+    original = native.solver.build_atlas
+    monkeypatch.setattr(native.solver, "build_atlas", lambda scene, density, *args:
+                        charted.append(density) or original(scene, density, *args))
+    limit = 2 << 20
+    with pytest.raises(GPUMemoryError) as error:
+        Solver(cornell_box(), Settings(texel_density=1e6, memory_limit=limit), ctx=ctx)
+    assert max(charted) < 1e3
+    assert error.value.needed_bytes > 1000 * limit
+    assert charted[-1] == error.value.suggested_density
+    solver = Solver(cornell_box(), Settings(texel_density=error.value.suggested_density,
+                                            memory_limit=limit), ctx=ctx)
+    assert solver.gpu_memory_bytes <= limit
+    solver.release()
+
+
 def test_no_opengl_says_what_to_install(monkeypatch):
     import moderngl
 
