@@ -326,6 +326,7 @@ class Solver:
         # Hemisphere maps are twice the hemicube's side: the same texels per radian at the zenith.
         self._map_size = settings.hemicube_resolution * (1 if settings.projection == "HEMICUBE" else 2)
 
+        self._check_surface_fits()
         started = time.perf_counter()
         self.atlas = build_atlas(scene, settings.texel_density, settings.max_atlas_size,
                                  settings.padding)
@@ -459,6 +460,27 @@ class Solver:
         return (self._memory_needed(atlas) <= self.settings.memory_limit
                 and max(atlas.width, atlas.height) <= max_size)
 
+    def _check_surface_fits(self):
+        """Refuse, before xatlas charts it, a density whose surface alone overflows the
+        memory: at 10^4 texels per metre xatlas takes 100 s on a 4 m room, at 10^6 hours."""
+        density = self.settings.texel_density
+        if not np.isfinite(density) or density <= 0.0:
+            return  # build_atlas names the bad value
+        scene = self.scene
+        charted = scene.receive | (scene.emission.max(axis=1) > 0.0)
+        scales = np.asarray(scene.object_texel_scale)[scene.object_index[charted]]
+        surface = float(np.sum(scene.triangle_area[charted] * scales ** 2))  # m^2 at density 1
+        needed = surface * density ** 2 * BYTES_PER_TEXEL
+        limit = int(self.settings.memory_limit)
+        if needed <= limit:
+            return
+        # Charts are padded and packed with gaps: start from half the memory for the surface.
+        fits = self._density_that_fits(math.sqrt(0.5 * limit / (surface * BYTES_PER_TEXEL)))
+        raise GPUMemoryError(
+            f"the lightmaps need at least {needed / 2**20:,.0f} MiB of GPU memory at "
+            f"{density:.4g} texels per metre but {limit / 2**20:.1f} MiB are allowed: "
+            f"{_lower_to(fits)}", int(needed), limit, fits)
+
     def _check_memory(self):
         atlas = self.atlas
         self._memory_bytes = self._memory_needed(atlas)
@@ -466,19 +488,22 @@ class Solver:
             return
         # Texels scale with the square of the density; padding does not, so search down.
         limit = int(self.settings.memory_limit)
-        density = atlas.density * math.sqrt(limit / self._memory_bytes)
-        for _ in range(12):
-            candidate = build_atlas(self.scene, density, self.settings.max_atlas_size,
-                                    self.settings.padding)
-            if self._fits(candidate):
-                break
-            density *= 0.85
+        fits = self._density_that_fits(atlas.density * math.sqrt(limit / self._memory_bytes))
         raise GPUMemoryError(
             f"the lightmaps need {self._memory_bytes / 2**20:.1f} MiB of GPU memory "
             f"({atlas.width}x{atlas.height} texels on {atlas.page_count} page(s)) but "
-            f"{limit / 2**20:.1f} MiB are allowed: lower the texel density from "
-            f"{atlas.density:.4g} to {density:.4g} texels per metre or less",
-            self._memory_bytes, limit, density)
+            f"{limit / 2**20:.1f} MiB are allowed: {_lower_to(fits, atlas.density)}",
+            self._memory_bytes, limit, fits)
+
+    def _density_that_fits(self, density):
+        """The first density from ``density`` down in steps of 15 % whose atlas fits, or
+        None when even 1/130 of it does not."""
+        for _ in range(30):
+            if self._fits(build_atlas(self.scene, density, self.settings.max_atlas_size,
+                                      self.settings.padding)):
+                return density
+            density *= 0.85
+        return None
 
     def _allocate_page(self, size):
         gl = self._gl
@@ -1054,6 +1079,15 @@ class Solver:
         finally:
             self._finish()
             self.timings[phase] += time.perf_counter() - start
+
+
+def _lower_to(density, current=None):
+    """The fix a GPUMemoryError gives: a density checked to fit, or the memory to raise."""
+    if density is None:
+        return ("no texel density fits: raise the memory limit or give fewer objects a "
+                "lightmap")
+    start = "" if current is None else f"from {current:.4g} "
+    return f"lower the texel density {start}to {density:.4g} texels per metre or less"
 
 
 def sky_suns(radiance, count):
