@@ -49,6 +49,8 @@ MAX_COARSER_LEVELS = 2
 # whose power is at least this share of the strongest one's. Each shot then takes exactly the
 # energy it read; what its texels receive meanwhile stays unshot for a later shot.
 BATCH_MIN_SHARE = 0.25
+# Edges bending less than this join triangles into one smooth surface (see smooth_surfaces).
+SMOOTH_SURFACE_DEGREES = 40.0
 # The regions: the first arg-max pyramid level with at most this many texels.
 SELECTION_REGIONS = 1024
 
@@ -325,6 +327,7 @@ class Solver:
         self._epsilon = 1e-5 * self._radius
         # Hemisphere maps are twice the hemicube's side: the same texels per radian at the zenith.
         self._map_size = settings.hemicube_resolution * (1 if settings.projection == "HEMICUBE" else 2)
+        self._surfaces = smooth_surfaces(scene) + 1   # 0 marks texels that do not receive
 
         self._check_surface_fits()
         started = time.perf_counter()
@@ -374,17 +377,20 @@ class Solver:
         self._rasterize()
 
         resolution, layers = self._map_size, 6 if settings.projection == "HEMICUBE" else 2
-        self._visibility = gl.texture_array((resolution, resolution, layers), 1)
+        self._visibility = gl.texture_array((resolution, resolution, layers), 2)
         self._visibility_fbo = gl.framebuffer([self._visibility])
         # Only occluders go into the visibility buffer; at least one triangle keeps it valid.
         occluders = scene.triangles[scene.occlude] if scene.occlude.any() else scene.triangles[:0]
         positions = scene.vertices[occluders].astype("f4")
+        surfaces = self._surfaces[scene.occlude]
         if not len(positions):
             positions = np.full((1, 3, 3), 1e30, dtype="f4")
+            surfaces = np.zeros(1)
         self._scene_vbo = gl.buffer(positions.tobytes())
-        self._visibility_vaos = {
-            name: gl.vertex_array(self._programs[name], [(self._scene_vbo, "3f", "in_position")])
-            for name in ("visibility", "hemisphere", "nonlinear")}
+        surface_vbo = gl.buffer(np.repeat(surfaces, 3).astype("f4").tobytes())
+        scene_content = [(self._scene_vbo, "3f", "in_position"), (surface_vbo, "1f", "in_surface")]
+        self._visibility_vaos = {name: gl.vertex_array(self._programs[name], scene_content)
+                                 for name in ("visibility", "hemisphere", "nonlinear")}
         # Caster subdivision level per occluder corner, for the tessellating projection.
         self._occluder_centres = positions.mean(axis=1).astype(np.float64)
         self._occluder_radii = np.linalg.norm(positions - self._occluder_centres[:, None],
@@ -394,7 +400,7 @@ class Solver:
         self._caster_vbo = gl.buffer(np.repeat(self._caster_levels, 3).astype("f4").tobytes())
         self._visibility_vaos["hemisphere_tessellated"] = gl.vertex_array(
             self._programs["hemisphere_tessellated"],
-            [(self._scene_vbo, "3f", "in_position"), (self._caster_vbo, "1f", "in_caster_level")])
+            scene_content + [(self._caster_vbo, "1f", "in_caster_level")])
         self._triangle_vertices = positions.shape[0] * 3
         block = 1 << (settings.shoot_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
                                               else 0))
@@ -554,7 +560,8 @@ class Solver:
         per_corner = lambda values: np.repeat(values[:, None, :], 3, axis=1)
         vertex_data = np.concatenate([
             atlas.texels, positions, normals, tex_uv, per_corner(scene.albedo[tris]),
-            per_corner(emission), per_corner(scene.receive[tris, None].astype(float)),
+            per_corner(emission),
+            per_corner((scene.receive * self._surfaces)[tris, None].astype(float)),
         ], axis=2).astype("f4")
         # Draw in runs of (page, albedo texture).
         order = np.lexsort((texture_index, atlas.page))
@@ -715,7 +722,7 @@ class Solver:
 
     def _per_page(self, slots, framebuffer, color_mask):
         """Yield the part of ``slots`` on each page, with that page's ``framebuffer`` bound
-        under ``color_mask`` and its position and normal maps on units 1 and 2."""
+        under ``color_mask`` and its position, normal and albedo maps on units 1 to 3."""
         for page_index in np.unique(self._slot_pages[slots]):
             page = self._pages[page_index]
             target = getattr(page, framebuffer)
@@ -723,6 +730,7 @@ class Solver:
             target.use()
             page.textures["position"].use(location=1)
             page.textures["normal"].use(location=2)
+            page.textures["albedo"].use(location=3)
             yield slots[self._slot_pages[slots] == page_index]
             target.color_mask = (True, True, True, True)
 
@@ -1079,6 +1087,34 @@ class Solver:
         finally:
             self._finish()
             self.timings[phase] += time.perf_counter() - start
+
+
+def smooth_surfaces(scene):
+    """A number per triangle for the smooth surface it belongs to: triangles joined across
+    shared edges that bend by less than SMOOTH_SURFACE_DEGREES (a curved mesh's facets are
+    one surface; a box's faces, or a wall and the floor it stands on, are several). The
+    visibility test forgives a receiver small depth differences against its own surface only."""
+    corners = scene.vertices[scene.triangles]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    count = len(scene.triangles)
+    edges = np.sort(scene.triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    owners = np.repeat(np.arange(count), 3)
+    order = np.lexsort((edges[:, 1], edges[:, 0]))
+    edges, owners = edges[order], owners[order]
+    shared = np.nonzero((edges[1:] == edges[:-1]).all(axis=1))[0]
+    a, b = owners[shared], owners[shared + 1]
+    smooth = (normals[a] * normals[b]).sum(axis=1) > math.cos(math.radians(SMOOTH_SURFACE_DEGREES))
+    a, b = a[smooth], b[smooth]
+    label = np.arange(count)
+    while True:   # connected components: pull both ends to the smaller label, then jump
+        joined = np.minimum(label[a], label[b])
+        previous = label.copy()
+        np.minimum.at(label, a, joined)
+        np.minimum.at(label, b, joined)
+        label = label[label]
+        if np.array_equal(label, previous):
+            return np.unique(label, return_inverse=True)[1]
 
 
 def _lower_to(density, current=None):

@@ -36,5 +36,5 @@ vec3 irradiance_at(vec3 point, vec3 normal) {
         }
         irradiance = u_light_value * mask * cos_r / dist2;
     }
-    return irradiance * visible_from_eye(point, normal);
+    return irradiance * visible_from_eye(point, normal, receiver_surface);
 }

@@ -49,7 +49,7 @@ vec3 irradiance_at(vec3 point, vec3 normal) {
     bool front = height > 0.0;
     vec3 radiance = front ? u_radiance_front : u_radiance_back;
     if (dot(radiance, vec3(1.0)) <= 0.0 || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
-    float visible = visible_from_eye(point, normal);
+    float visible = visible_from_eye(point, normal, receiver_surface);
     if (visible <= 0.0) return vec3(0.0);
     return PI * radiance * polygon_form_factor(point, normal) * visible;
 }

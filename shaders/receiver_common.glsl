@@ -2,13 +2,14 @@
 // irradiance a point gets from the current shooter (0 where hidden or facing away).
 uniform sampler2D u_position;
 uniform sampler2D u_normal;
-uniform sampler2D u_albedo;
 uniform sampler2D u_tangent;   // xyz tangent, w subdivision level of the texel
 
 layout(location = 0) out vec4 out_irradiance;  // added to the accumulated irradiance
 layout(location = 1) out vec4 out_unshot;      // added to the unshot radiance
 
 const float PI = 3.14159265358979;
+
+float receiver_surface;   // the number of the texel's surface, for visible_from_eye()
 
 vec3 irradiance_at(vec3 point, vec3 normal);
 // Whether the texel lies so close to the shooter that it gathers at its sample point only.
@@ -19,6 +20,7 @@ void main() {
     vec4 position = texelFetch(u_position, texel, 0);
     vec4 albedo = texelFetch(u_albedo, texel, 0);
     if (position.w <= 0.0 || albedo.a <= 0.0) discard;
+    receiver_surface = albedo.a;
     vec4 normal = texelFetch(u_normal, texel, 0);
     vec4 tangent = texelFetch(u_tangent, texel, 0);
     int split = 1 << int(tangent.w + 0.5);

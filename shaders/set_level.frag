@@ -15,7 +15,7 @@ layout(location = 0) out vec4 out_level;
 
 float visibility_of(ivec2 texel) {
     return visible_from_eye(texelFetch(u_position, texel, 0).xyz,
-                            texelFetch(u_normal, texel, 0).xyz);
+                            texelFetch(u_normal, texel, 0).xyz, texelFetch(u_albedo, texel, 0).a);
 }
 
 void main() {

@@ -24,7 +24,7 @@ void main() {
     vec3 to_eye = u_orthographic != 0 ? -u_frame[2] : u_eye - position.xyz;
     if (dot(normal, to_eye) <= 0.0) discard;
     if (u_clip_below != 0 && dot(position.xyz - u_eye, u_frame[2]) <= 0.0) discard;
-    bool hidden = visible_from_eye(position.xyz, normal) < 0.5;
+    bool hidden = visible_from_eye(position.xyz, normal, texelFetch(u_albedo, texel, 0).a) < 0.5;
     if (hidden != (u_count_hidden != 0)) discard;
     out_unused = vec4(0.0);
 }

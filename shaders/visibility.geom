@@ -8,7 +8,9 @@ uniform int u_face_count;
 uniform int u_clip_below;
 
 in vec3 v_world[];
+in float v_surface[];
 out vec3 g_local;
+flat out float g_surface;
 
 #include "projection.glsl"
 
@@ -17,6 +19,7 @@ void main() {
     for (int i = 0; i < 3; ++i) {
         vec3 local = to_local(v_world[i]);
         g_local = local;
+        g_surface = v_surface[0];
         gl_Position = face_clip(local, gl_InvocationID);
         gl_ClipDistance[0] = u_clip_below != 0 ? local.z : 1.0;
         gl_Layer = gl_InvocationID;

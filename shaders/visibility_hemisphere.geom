@@ -13,9 +13,11 @@ in float v_height_front[];
 in float v_height_back[];
 in float v_distance[];
 in vec3 v_local[];
+in float v_surface[];
 
 #include "projection.glsl"
 flat out vec4 g_plane;  // the triangle's plane in the hemisphere's frame: normal, offset
+flat out float g_surface;
 
 void main() {
     int side = gl_InvocationID;
@@ -29,6 +31,7 @@ void main() {
     vec3 plane_normal = hemisphere_local(n, side);
     for (int i = 0; i < 3; ++i) {
         g_plane = vec4(plane_normal, dot(plane_normal, h0));
+        g_surface = v_surface[0];
         gl_Position = side == 0 ? v_front[i] : v_back[i];
         gl_ClipDistance[0] = side == 0 ? v_height_front[i] : v_height_back[i];
         gl_Layer = side;

@@ -12,7 +12,9 @@ uniform int u_face_count;
 in vec3 v_local[];
 in float v_distance[];
 in float v_caster_level[];
+in float v_surface[];
 flat out vec4 g_plane;  // the triangle's plane in the hemisphere's frame: normal, offset
+flat out float g_surface;
 
 #include "projection.glsl"
 
@@ -21,6 +23,7 @@ const float MAX_SUB_EDGE_ANGLE = 0.1309;  // 7.5 degrees
 void emit(vec3 local, int side, vec4 plane) {
     vec3 h = hemisphere_local(local, side);
     g_plane = plane;
+    g_surface = v_surface[0];
     gl_Position = vec4(stereographic(h), 0.0, 1.0);
     gl_ClipDistance[0] = h.z;
     gl_Layer = side;

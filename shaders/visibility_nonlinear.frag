@@ -3,10 +3,12 @@
 // inside the triangle's spherical image (on the inner side of the three planes through the eye
 // and each edge), and it stores the true distance along that direction to the triangle.
 flat in vec3 g_corner[3];
+flat in float g_surface;
 uniform float u_resolution;
-layout(location = 0) out float out_distance;
+layout(location = 0) out vec2 out_distance;
 
 #include "projection.glsl"
+#include "visibility_store.glsl"
 
 void main() {
     vec2 p = gl_FragCoord.xy / u_resolution * 2.0 - 1.0;
@@ -21,5 +23,5 @@ void main() {
     vec3 n = cross(g_corner[1] - g_corner[0], g_corner[2] - g_corner[0]);
     float distance = dot(n, g_corner[0]) / dot(n, d);
     if (!(distance > 0.0)) discard;
-    out_distance = distance;
+    out_distance = stored_distance(distance, g_surface);
 }

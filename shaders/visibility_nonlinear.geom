@@ -10,7 +10,9 @@ uniform int u_face_count;    // hemispheres drawn: 1 (front) or 2 (front and bac
 uniform float u_resolution;  // map side in texels
 
 in vec3 v_world[];
+in float v_surface[];
 flat out vec3 g_corner[3];   // the triangle in this hemisphere's frame
+flat out float g_surface;
 
 #include "projection.glsl"
 
@@ -60,6 +62,7 @@ void main() {
     vec2 corners[4] = vec2[4](box.xy, box.zy, box.xw, box.zw);
     for (int i = 0; i < 4; ++i) {
         g_corner = c;
+        g_surface = v_surface[0];
         gl_Position = vec4(corners[i], 0.0, 1.0);
         gl_Layer = side;
         EmitVertex();

@@ -1,5 +1,6 @@
 // Back-projection of a receiver into the visibility map and depth comparison.
 uniform sampler2DArray u_visibility;
+uniform sampler2D u_albedo;          // a receiving texel's alpha: its surface's number
 uniform float u_resolution;
 uniform float u_epsilon;             // absolute depth tolerance, scaled to the scene
 uniform int u_neighbour_visibility;  // the paper's fix (Sec. 5.2): the 3x3 texels around vote
@@ -20,24 +21,39 @@ void texel_ray(ivec3 texel, out vec3 origin, out vec3 direction) {
     }
 }
 
-// Whether the map texel lets the receiver (local point, local normal, distance 'own') be
-// seen. Either its own distance is within the slope-scaled 'tolerance' of the stored one, or
-// the texel's centre ray meets the receiver's plane no farther than the stored distance:
-// a receiver seen at a grazing angle then never shadows itself, however steep.
-bool texel_sees(ivec3 texel, vec3 point, vec3 normal, float own, float tolerance) {
-    float stored = texelFetch(u_visibility, texel, 0).r;
-    if (own <= stored + tolerance) return true;
+// The tolerances a receiver is given against the map: 'own_surface' (slope-scaled) where the
+// nearest surface stored is the receiver's own smooth patch, 'other' (rounding only) where it
+// is something else, and 'reach', how far from the receiver the map texel's ray may meet the
+// receiver's plane.
+struct Tolerance {
+    float own_surface;
+    float other;
+    float reach;
+};
+
+// Whether the map texel lets the receiver (local point, local normal, distance 'own', its
+// surface's number) be seen. Either its own distance is within the tolerance of the stored
+// one, or the texel's centre ray meets the receiver's plane no farther than the stored
+// distance and near the receiver: a receiver seen at a grazing angle then never shadows
+// itself, however steep, while a wall's far side, or the same floor past a wall, stays dark.
+bool texel_sees(ivec3 texel, vec3 point, vec3 normal, float own, uint surface,
+                Tolerance tolerance) {
+    vec2 stored_texel = texelFetch(u_visibility, texel, 0).rg;
+    float stored = stored_texel.r;
+    bool same_surface = (floatBitsToUint(stored_texel.g) & 0xFFFu) == (surface & 0xFFFu);
+    if (own <= stored + (same_surface ? tolerance.own_surface : tolerance.other)) return true;
     vec3 origin, direction;
     texel_ray(texel, origin, direction);
     float facing = dot(normal, direction);
     if (facing == 0.0) return false;
     float along = dot(normal, point - origin) / facing;
-    return along > 0.0 && along <= stored + u_epsilon;
+    return along > 0.0 && along <= stored + u_epsilon
+        && distance(origin + along * direction, point) <= tolerance.reach;
 }
 
-// How much of 'world' (a receiver with normal 'normal') the eye sees: 1 when it is the nearest
-// surface in its direction.
-float visible_from_eye(vec3 world, vec3 normal) {
+// How much of 'world' (a receiver with normal 'normal' on the surface numbered 'surface')
+// the eye sees: 1 when it is the nearest surface in its direction.
+float visible_from_eye(vec3 world, vec3 normal, float surface) {
     vec3 local = to_local(world);
     vec3 local_normal = transpose(u_frame) * normal;
     float own = view_distance(local);
@@ -60,12 +76,18 @@ float visible_from_eye(vec3 world, vec3 normal) {
                                         : own * 2.0 / u_resolution;
     }
     // Slope-scaled tolerance: across one visibility texel a surface seen at a grazing angle
-    // changes its distance by about texel footprint * tan(angle).
+    // changes its distance by about texel footprint * tan(angle). Only against the receiver's
+    // own surface: against another (a wall it touches) it would let light through.
     vec3 to_eye = u_orthographic != 0 ? -(u_frame[2]) : -normalize(u_frame * local);
     float cos_incidence = clamp(abs(dot(normal, to_eye)), 0.02, 1.0);
     float tan_incidence = sqrt(1.0 - cos_incidence * cos_incidence) / cos_incidence;
-    float tolerance = u_epsilon + footprint * min(tan_incidence, 8.0) * 1.5;
-    if (texel_sees(texel, local, local_normal, own, tolerance)) return 1.0;
+    // The 3x3 texels around lie up to 1.5 texels from the receiver's ray; on its plane a
+    // texel's footprint stretches by 1 / cos.
+    Tolerance tolerance = Tolerance(u_epsilon + footprint * min(tan_incidence, 8.0) * 1.5,
+                                    u_epsilon,
+                                    2.5 * footprint / cos_incidence);
+    uint own_surface = uint(surface);
+    if (texel_sees(texel, local, local_normal, own, own_surface, tolerance)) return 1.0;
     if (u_neighbour_visibility == 0) return 0.0;
     // A receiver whose own texel fails may be at a glancing silhouette, the occluder's edge
     // covering the texel's centre but not the receiver: it gets the share of the 3x3 texels
@@ -74,7 +96,7 @@ float visible_from_eye(vec3 world, vec3 normal) {
     for (int j = -1; j <= 1; ++j) {
         for (int i = -1; i <= 1; ++i) {
             ivec3 n = ivec3(clamp(texel.xy + ivec2(i, j), ivec2(0), ivec2(last)), texel.z);
-            seen += texel_sees(n, local, local_normal, own, tolerance) ? 1.0 : 0.0;
+            seen += texel_sees(n, local, local_normal, own, own_surface, tolerance) ? 1.0 : 0.0;
         }
     }
     return seen / 9.0;

@@ -60,7 +60,7 @@ def test_light_coplanar_with_the_ceiling_is_neither_hidden_nor_doubled(ctx, gl_c
     """The Cornell light drawn in the ceiling's plane, over a black ceiling: the ceiling
     around and under it hides none of its light (floor = rho L F), and in a closed box of
     albedo 0.5 the light and the ceiling behind it do not both absorb the same light: the
-    ledger's escaped share stays near 0 (measured -1.9 %, 1 mm apart -1.2 %)."""
+    ledger's escaped share stays near 0 (measured -1.9 %; 1 mm apart -0.7 %)."""
     albedo, radiance = 0.5, 10.0
     light = [(.35, .35, 1), (.35, .65, 1), (.65, .65, 1), (.65, .35, 1)]
     builder = SceneBuilder()
@@ -86,7 +86,7 @@ def test_light_coplanar_with_the_ceiling_is_neither_hidden_nor_doubled(ctx, gl_c
     assert progress.converged
     assert all(np.isfinite(image).all() for image in images)
     assert ledger.imbalance() < 1e-4
-    assert abs(ledger.escaped[0] / ledger.emitted[0]) < 0.03
+    assert abs(ledger.escaped[0] / ledger.emitted[0]) < 0.025
 
 
 def test_tiny_huge_and_sliver_triangles_with_t_junctions_follow_cos_over_r_squared(ctx,
@@ -238,3 +238,41 @@ def test_random_scenes_and_settings_stay_finite_and_balanced(ctx, gl_clean, seed
     # Emitted power only goes down the ledger: nothing absorbed or unshot beyond it.
     assert (ledger.absorbed + ledger.unshot <= ledger.emitted * 1.03).all(), settings
     assert progress.shots <= 150
+
+
+def two_rooms():
+    """Two 1 m rooms side by side (x < 0 and x > 0) split by a zero-thickness wall at x = 0;
+    floor, ceiling and the long walls are single quads spanning both. A point light in the
+    room at x < 0."""
+    builder = SceneBuilder()
+    walls = {
+        "floor": [(-1, 0, 0), (1, 0, 0), (1, 1, 0), (-1, 1, 0)],
+        "ceiling": [(-1, 0, 1), (-1, 1, 1), (1, 1, 1), (1, 0, 1)],
+        "south": [(-1, 0, 0), (-1, 0, 1), (1, 0, 1), (1, 0, 0)],
+        "north": [(-1, 1, 0), (1, 1, 0), (1, 1, 1), (-1, 1, 1)],
+        "west": [(-1, 0, 0), (-1, 1, 0), (-1, 1, 1), (-1, 0, 1)],
+        "east": [(1, 0, 0), (1, 0, 1), (1, 1, 1), (1, 1, 0)],
+        "wall": [(0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0)],       # faces the lit room
+    }
+    for name, corners in walls.items():
+        builder.quad(name, corners, (0.7,) * 3)
+    return builder.build([PointLight(position=(-0.5, 0.5, 0.6), power=50.0)])
+
+
+@pytest.mark.parametrize("projection", ["HEMICUBE", "NONLINEAR"])
+def test_a_zero_thickness_wall_keeps_the_dark_room_dark(ctx, gl_clean, projection):
+    """Nothing in the room at x > 0 sees the light or anything it lights. Measured: the texel
+    column next to the wall gets 1.4-1.8 % of the lit room's median (5.7 % before the
+    visibility test knew which surface a map texel holds), everything farther 0.1-0.2 % (that
+    column's light, reflected)."""
+    density = 13
+    images, samples, ledger, _, _ = solve(two_rooms(), ctx, projection=projection,
+                                          texel_density=density, threshold=0.01)
+    values, positions, _ = occupied_texels(images, samples)
+    x = positions[:, 0]
+    lit = np.median(values[x < -1e-6, 0])
+    next_to_wall = (x > 1e-6) & (x < 1.0 / density)
+    farther = x >= 1.0 / density
+    assert values[next_to_wall].max() < 0.025 * lit
+    assert values[farther].max() < 0.0025 * lit
+    assert ledger.imbalance() < 1e-4
