@@ -48,6 +48,7 @@ class _Collector:
         self.vertices, self.triangles, self.normals = [], [], []
         self.albedo, self.emission, self.two_sided = [], [], []
         self.receive, self.occlude, self.object_index = [], [], []
+        self.receive_back = []
         self.albedo_uv, self.texture_index = [], []
         self.object_names, self.texel_scale = [], []
         self.vertex_count = 0
@@ -59,7 +60,7 @@ class _Collector:
         return len(self.object_names) - 1
 
     def add(self, vertices, normals, triangles, obj, albedo, emission, two_sided, receive,
-            occlude, albedo_uv, texture_index):
+            occlude, albedo_uv, texture_index, receive_back=False):
         count = len(triangles)
         self.vertices.append(vertices)
         self.normals.append(normals)
@@ -70,6 +71,7 @@ class _Collector:
         self.two_sided.append(np.broadcast_to(two_sided, count))
         self.receive.append(np.broadcast_to(receive, count))
         self.occlude.append(np.broadcast_to(occlude, count))
+        self.receive_back.append(np.broadcast_to(receive_back, count))
         self.object_index.append(np.full(count, obj))
         self.albedo_uv.append(albedo_uv)
         self.texture_index.append(texture_index)
@@ -153,7 +155,7 @@ class _Exporter:
             wants_receive = original.luxel.receive
             receive = wants_receive and self._can_receive(obj, mesh, name, is_instance)
             self._add_mesh(obj, mesh, name, matrix, receive,
-                           original.luxel.resolution_scale)
+                           original.luxel.resolution_scale, original.luxel.back_faces)
         finally:
             obj.to_mesh_clear()
 
@@ -183,7 +185,7 @@ class _Exporter:
                              "one so Luxel can add its lightmap UV map", name)
         return True
 
-    def _add_mesh(self, obj, mesh, name, matrix, receive, texel_scale):
+    def _add_mesh(self, obj, mesh, name, matrix, receive, texel_scale, back_faces='AUTO'):
         triangles_count = len(mesh.loop_triangles)
         if triangles_count == 0:
             return
@@ -241,9 +243,11 @@ class _Exporter:
             else:
                 albedo_uv[chosen] = uv[loops[chosen]]
 
+        receive_back = back_faces == 'ON' or (back_faces == 'AUTO' and emission.max() > 0.0
+                                              and _is_open(loop_vertex[loops]))
         object_index = self.collector.add_object(name, texel_scale)
         first = self.collector.add(vertices, normals, triangles, object_index, albedo, emission,
-                                   True, receive, True, albedo_uv, texture_index)
+                                   True, receive, True, albedo_uv, texture_index, receive_back)
         if receive:
             self.receivers.append(Receiver(name, object_index, first, loops))
 
@@ -466,6 +470,7 @@ class _Exporter:
             emission=np.concatenate(c.emission),
             emission_two_sided=np.concatenate(c.two_sided),
             receive=np.concatenate(c.receive), occlude=np.concatenate(c.occlude),
+            receive_back=np.concatenate(c.receive_back),
             object_index=np.concatenate(c.object_index), object_names=c.object_names,
             object_texel_scale=c.texel_scale, albedo_uv=np.concatenate(c.albedo_uv),
             albedo_texture_index=np.concatenate(c.texture_index),
@@ -534,3 +539,12 @@ def _clamp_albedo(colour, material, exporter):
 
 def _srgb_to_linear(values):
     return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4)
+
+
+def _is_open(corners):
+    """Whether a mesh (triangles as mesh vertex indices) has an edge used by one face only:
+    a sheet, whose back can face the room, not a solid's inside."""
+    edges = np.sort(corners[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    return bool((counts == 1).any())
+

@@ -122,9 +122,10 @@ class LUXEL_PT_object(bpy.types.Panel):
         layout.use_property_split = True
         settings = context.object.luxel
         layout.prop(settings, "receive")
-        row = layout.row()
-        row.active = settings.receive
-        row.prop(settings, "resolution_scale")
+        column = layout.column()
+        column.active = settings.receive
+        column.prop(settings, "resolution_scale")
+        column.prop(settings, "back_faces")
         if settings.image is not None:
             column = layout.column(align=True)
             column.label(text=f"Image: {settings.image.name}", icon='IMAGE_DATA')

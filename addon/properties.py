@@ -152,6 +152,14 @@ class LuxelObjectSettings(bpy.types.PropertyGroup):
     receive: BoolProperty(name="Receive Lightmap", default=True,
                           description="Bake a lightmap for this object (it occludes and emits "
                                       "either way)")
+    back_faces: EnumProperty(
+        name="Back Faces", default='AUTO', items=[
+            ('AUTO', "Auto", "Emitting sheets (lights modelled as planes, open meshes) receive "
+             "on their backs too: light bounces between a lamp's back and the ceiling"),
+            ('ON', "On", "The back faces receive and reflect light on texels of their own, "
+             "as Blender's two-sided surfaces do (they are not shown in the viewport)"),
+            ('OFF', "Off", "Only the front faces receive light")],
+        description="Whether light reaching this object's back faces is reflected")
     resolution_scale: FloatProperty(name="Resolution Scale", default=1.0, min=0.01,
                                     soft_max=16.0,
                                     description="Multiplies the scene's texel density here")

@@ -69,7 +69,10 @@ def write_back(scene, export, atlas, pages):
 def _write_receivers(export, atlas, images, undo):
     """The lightmap UV map and ``luxel`` record of each receiver; returns their names."""
     row_of_triangle = np.full(len(export.scene.triangles), -1)
-    row_of_triangle[atlas.triangles] = np.arange(len(atlas.triangles))
+    # Back faces solved on texels of their own come after the scene's triangles: no UV map
+    # shows them.
+    front = atlas.triangles < len(row_of_triangle)
+    row_of_triangle[atlas.triangles[front]] = np.nonzero(front)[0]
     uv = atlas.uv()
     baked = set()
     for receiver in export.receivers:

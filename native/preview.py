@@ -64,9 +64,11 @@ def render_preview(solver, lightmaps, eye, target, up=(0.0, 1.0, 0.0), fov=40.0,
             framebuffer.use()
             framebuffer.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
             texture.use(location=0)
-            ctx.enable(moderngl.DEPTH_TEST)
+            # Where back faces have texels of their own, their copies show them from behind.
+            two_sided = getattr(scene, "back_of", None) is not None
+            ctx.enable(moderngl.DEPTH_TEST | (moderngl.CULL_FACE if two_sided else 0))
             vao.render(moderngl.TRIANGLES)
-            ctx.disable(moderngl.DEPTH_TEST)
+            ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
             image = np.frombuffer(color.read(), dtype="f4").reshape(height, width, 4)[..., :3]
         finally:
             gl.release()

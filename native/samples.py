@@ -16,11 +16,11 @@ class SceneBuilder:
     def __init__(self):
         self._vertices, self._triangles = [], []
         self._albedo, self._emission, self._two_sided, self._receive = [], [], [], []
-        self._occlude = []
+        self._occlude, self._receive_back = [], []
         self._object_index, self.object_names = [], []
 
     def quad(self, name, corners, albedo=(0.5, 0.5, 0.5), emission=(0.0, 0.0, 0.0),
-             two_sided=True, receive=True, subdivisions=1, occlude=True):
+             two_sided=True, receive=True, subdivisions=1, occlude=True, receive_back=False):
         """Add a planar quad given by 4 corners in counter-clockwise order seen from its front,
         optionally split into subdivisions x subdivisions cells."""
         if name not in self.object_names:
@@ -44,6 +44,7 @@ class SceneBuilder:
                     self._two_sided.append(two_sided)
                     self._receive.append(receive)
                     self._occlude.append(occlude)
+                    self._receive_back.append(receive_back)
                     self._object_index.append(obj)
         return self
 
@@ -74,7 +75,8 @@ class SceneBuilder:
             emission=np.array(self._emission, dtype=np.float64),
             emission_two_sided=np.array(self._two_sided), receive=np.array(self._receive),
             object_index=np.array(self._object_index), object_names=list(self.object_names),
-            occlude=np.array(self._occlude), lights=list(lights), sky=sky)
+            occlude=np.array(self._occlude), receive_back=np.array(self._receive_back),
+            lights=list(lights), sky=sky)
 
 
 def cornell_box():

@@ -77,6 +77,9 @@ class Scene:
     receive (T,) gets a lightmap; non-receiving triangles still occlude and emit.
     occlude (T,) casts shadows (default); off for Blender area lights, which emit but are
     invisible to other light.
+    receive_back (T,) the back face receives and reflects light too, on texels of its own
+    (Blender's surfaces are two-sided; off by default because the back of a closed mesh is
+    inside it): solved as a mirrored copy, see with_back_faces().
     object_index (T,) into object_names, used in messages and by the add-on;
     object_texel_scale, one factor per object name, multiplies the texel density there.
     albedo_texture_index (T,) into albedo_textures ((H, W, 3 or 4) linear float arrays, row 0
@@ -99,6 +102,7 @@ class Scene:
     lights: list = field(default_factory=list)
     occlude: np.ndarray = None
     sky: tuple = (0.0, 0.0, 0.0)
+    receive_back: np.ndarray = None
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -126,6 +130,7 @@ class Scene:
         self.emission_two_sided = per_triangle(self.emission_two_sided, True, bool)
         self.receive = per_triangle(self.receive, True, bool)
         self.occlude = per_triangle(self.occlude, True, bool)
+        self.receive_back = per_triangle(self.receive_back, False, bool)
         self.sky = _vec3(self.sky, "sky")
         self.object_index = per_triangle(self.object_index, 0, np.int64)
         self.albedo_texture_index = per_triangle(self.albedo_texture_index, -1, np.int64)
@@ -248,6 +253,41 @@ class Scene:
             if isinstance(light, PointLight):
                 total = total + light.emitted_power()
         return total
+
+    def with_back_faces(self):
+        """The scene with a receiving back face for each receiving triangle flagged in
+        receive_back: a copy with its own vertices (so it charts apart), wound the other way,
+        that does not occlude twice and emits what the original emitted from its back (the
+        original then emits from its front only). Copies follow the original triangles."""
+        backs = np.nonzero(self.receive_back & self.receive)[0]
+        if len(backs) == 0:
+            return self
+        count, vertex_count = len(self.triangles), len(self.vertices)
+        corners = self.triangles[backs][:, ::-1]
+        extend = lambda array, values: np.concatenate([array, values])
+        front_emission = np.where(self.emission_two_sided[backs, None], self.emission[backs], 0.0)
+        two_sided = self.emission_two_sided.copy()
+        two_sided[backs] = False
+        copy = Scene(
+            vertices=extend(self.vertices, self.vertices[corners.ravel()]),
+            triangles=extend(self.triangles,
+                             vertex_count + np.arange(3 * len(backs)).reshape(-1, 3)),
+            albedo=extend(self.albedo, self.albedo[backs]),
+            emission=extend(self.emission, front_emission),
+            normals=None if self.normals is None else extend(self.normals,
+                                                            -self.normals[corners.ravel()]),
+            emission_two_sided=extend(two_sided, np.zeros(len(backs), bool)),
+            receive=extend(self.receive, np.ones(len(backs), bool)),
+            object_index=extend(self.object_index, self.object_index[backs]),
+            object_names=list(self.object_names), object_texel_scale=list(self.object_texel_scale),
+            albedo_uv=None if self.albedo_uv is None else extend(self.albedo_uv,
+                                                                self.albedo_uv[backs][:, ::-1]),
+            albedo_texture_index=extend(self.albedo_texture_index,
+                                        self.albedo_texture_index[backs]),
+            albedo_textures=self.albedo_textures, lights=self.lights,
+            occlude=extend(self.occlude, np.zeros(len(backs), bool)), sky=self.sky)
+        copy.back_of = extend(np.full(count, -1), backs)  # the original of each copy
+        return copy
 
     def bounds(self):
         return self.vertices.min(axis=0), self.vertices.max(axis=0)

@@ -163,7 +163,8 @@ class Solver:
     with ``with ctx:`` and restores the caller's context afterwards."""
 
     def __init__(self, scene, settings=None, ctx=None):
-        self.scene = scene
+        # Back faces that receive are solved as triangles of their own, after the scene's.
+        self.scene = scene.with_back_faces()
         self.settings = settings or Settings()
         self.settings.validate()
         self.timings = dict.fromkeys(PHASES, 0.0)
@@ -328,6 +329,10 @@ class Solver:
         # Hemisphere maps are twice the hemicube's side: the same texels per radian at the zenith.
         self._map_size = settings.hemicube_resolution * (1 if settings.projection == "HEMICUBE" else 2)
         self._surfaces = smooth_surfaces(scene) + 1   # 0 marks texels that do not receive
+        back_of = getattr(scene, "back_of", None)
+        if back_of is not None:   # a back face is its front's surface: they are one sheet
+            copies = back_of >= 0
+            self._surfaces[copies] = self._surfaces[back_of[copies]]
 
         self._check_surface_fits()
         started = time.perf_counter()

@@ -262,6 +262,28 @@ def test_hidden_instanced_and_modified_objects_export_as_they_render():
     assert any("instancer/prop" in warning for warning in result.warnings)
 
 
+def test_back_faces_receive_on_emitting_sheets_unless_set_otherwise():
+    """Auto: an emitting plane (a lamp modelled as a sheet) receives on its back; a closed
+    emitting cube and a plain plane do not. On and Off override it per object."""
+    scene = room_scene()
+    lamp = mesh_object(scene, "lamp_sheet", [(0, 0, 3.9), (1, 0, 3.9), (1, 1, 3.9), (0, 1, 3.9)],
+                       [(0, 3, 2, 1)], material("glow", (0.8, 0.8, 0.8), emission=(1.0, 1.0, 1.0), strength=5.0))
+    plane = mesh_object(scene, "plane", [(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)],
+                        [(0, 1, 2, 3)], material("grey", (0.5, 0.5, 0.5)))
+    cube(scene, "glow_cube", 0.2, (1, 1, 1), bpy.data.materials["glow"])
+    export = blender_session.addon().addon.export
+
+    def backs():
+        exported = export.export_scene(bpy.context).scene
+        return {name: bool(exported.receive_back[exported.object_index == index].any())
+                for index, name in enumerate(exported.object_names)}
+
+    assert backs() == {"room": False, "block": False, "lamp_sheet": True, "plane": False,
+                       "glow_cube": False}
+    lamp.luxel.back_faces, plane.luxel.back_faces = 'OFF', 'ON'
+    assert backs()["lamp_sheet"] is False and backs()["plane"] is True
+
+
 def test_blender_lights_export_in_cycles_units():
     scene = room_scene(with_light=False)
     export = blender_session.addon().addon.export

@@ -75,22 +75,24 @@ def test_compare_writes_both_files_which_parse(comparison):
 
 def test_per_object_errors_agree_with_cycles(comparison):
     """Luxel against the Cycles bake of the same texels (the independent truth), per object.
-    The ceiling is left out: in the 0.1 mm gap over the light, light bounces between the
-    ceiling and the light's back face, which reflects in Cycles (Blender's surfaces reflect on
-    both sides) and not in Luxel (its texels receive on their front side only)."""
+    The ceiling apart: in the 0.1 mm gap over the light, light bounces between the ceiling and
+    the light's back face, which receives because the light is an emitting sheet (Back Faces
+    Auto). Its mean was 57 % below Cycles' with front faces only; now 16 % below (converged
+    or not: the texels straddling the light's edge, sampled at one point, remain)."""
     _, _, report, *_ = comparison
     objects = {o["name"]: o for o in report["objects"]}
     assert set(objects) == {"floor", "ceiling", "back_wall", "red_wall", "green_wall", "light",
                             "short_block", "tall_block"}
     for name, entry in objects.items():
         assert entry["texels"] > 0 and math.isfinite(entry["rms"])
+        luminance = np.array([0.2126, 0.7152, 0.0722])
+        luxel, cycles = np.array(entry["luxel_mean"]), np.array(entry["cycles_mean"])
         if name == "ceiling":
+            assert luxel @ luminance == pytest.approx(cycles @ luminance, rel=0.20)
             continue
         # At these settings (2 % left unshot, block faces 6 texels wide) means agree within
         # 10 % (the parity tests hold 5 % at finer settings); texel RMS within 25 % against a
         # 64-sample reference (its own noise is in it).
-        luminance = np.array([0.2126, 0.7152, 0.0722])
-        luxel, cycles = np.array(entry["luxel_mean"]), np.array(entry["cycles_mean"])
         assert luxel @ luminance == pytest.approx(cycles @ luminance, rel=0.10), name
         assert entry["rel_rms"] < 0.25, name
     assert report["reference_noise_rel"] > 0.0
