@@ -396,10 +396,26 @@ class Solver:
         scene_content = [(self._scene_vbo, "3f", "in_position"), (surface_vbo, "1f", "in_surface")]
         self._visibility_vaos = {name: gl.vertex_array(self._programs[name], scene_content)
                                  for name in ("visibility", "hemisphere", "nonlinear")}
+        # Occluders' planes and bounds, to keep a shooter on one side of what crosses it.
+        corners = positions.astype(np.float64)
+        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        self._occluder_normals = normals / np.maximum(
+            np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+        self._occluder_offsets = (self._occluder_normals * corners[:, 0]).sum(axis=1)
+        self._occluder_low, self._occluder_high = corners.min(axis=1), corners.max(axis=1)
         # Caster subdivision level per occluder corner, for the tessellating projection.
         self._occluder_centres = positions.mean(axis=1).astype(np.float64)
         self._occluder_radii = np.linalg.norm(positions - self._occluder_centres[:, None],
                                               axis=2).max(axis=1)
+        # Occluders near a block are looked up among the smaller 95 % sorted by x, plus the
+        # largest 5 % always: a shot then tests hundreds of triangles, not the whole scene.
+        self._small_reach = float(np.quantile(self._occluder_radii, 0.95))
+        small = self._occluder_radii <= self._small_reach
+        order = np.argsort(self._occluder_centres[small, 0])
+        self._small_occluders = np.nonzero(small)[0][order]
+        self._small_x = self._occluder_centres[self._small_occluders, 0]
+        self._large_occluders = np.nonzero(~small)[0]
+        self._crossing_planes = {}   # per shooting block region
         initial = settings.subdivision_level if settings.subdivision == "REGULAR" else 0
         self._caster_levels = np.full(len(positions), initial, dtype=np.int32)
         self._caster_vbo = gl.buffer(np.repeat(self._caster_levels, 3).astype("f4").tobytes())
@@ -902,6 +918,7 @@ class Solver:
         coplanar = ((power > 0.0) & (normal[:, :3] @ n0 > 0.95)
                     & (np.abs((position[:, :3] - p0) @ n0) <= 0.25 * size * normal[strongest, 3]))
         members = np.nonzero(coplanar & (density >= SIMILAR_RADIANCE * density[strongest]))[0]
+        members = self._same_side_as(region, strongest, members, position, normal[strongest, 3])
         weights = area[members, None]
         total_area = float(weights.sum())
         centre = (position[members, :3] * weights).sum(axis=0) / total_area
@@ -918,6 +935,41 @@ class Solver:
             radiance_front=(front[members] * weights).sum(axis=0) / total_area,
             radiance_back=(back[members] * weights).sum(axis=0) / total_area,
             unshot=unshot[members].astype(np.float32))
+
+    def _same_side_as(self, region, strongest, members, position, texel_size):
+        """The members on the strongest texel's side of every occluder whose plane runs
+        through the block (a wall standing on the floor, a shelf touching a cabinet): shot
+        from one centre, texels on both sides would light each side from the other. The
+        others stay unshot for a later shot."""
+        if len(members) < 2:
+            return members
+        points = position[:, :3]
+        if region not in self._crossing_planes:   # blocks are shot many times: once per block
+            self._crossing_planes[region] = self._planes_crossing(
+                points[position[:, 3] > 0.0], texel_size)
+        normals, offsets = self._crossing_planes[region]
+        if len(offsets) == 0:
+            return members
+        sides = points[members] @ normals.T - offsets                    # (members, planes)
+        own = points[strongest] @ normals.T - offsets
+        margin = 1e-3 * texel_size
+        crossing = (sides.max(axis=0) > margin) & (sides.min(axis=0) < -margin)
+        return members[(sides[:, crossing] * own[crossing] >= 0.0).all(axis=1)]
+
+    def _planes_crossing(self, points, texel_size):
+        """Planes (normals, offsets) of the occluders near ``points`` that have some of them
+        on each side."""
+        low, high = points.min(axis=0) - texel_size, points.max(axis=0) + texel_size
+        first, last = np.searchsorted(self._small_x, [low[0] - self._small_reach,
+                                                      high[0] + self._small_reach])
+        candidates = np.concatenate([self._small_occluders[first:last], self._large_occluders])
+        near = candidates[(self._occluder_low[candidates] <= high).all(axis=1)
+                          & (self._occluder_high[candidates] >= low).all(axis=1)]
+        normals, offsets = self._occluder_normals[near], self._occluder_offsets[near]
+        sides = points @ normals.T - offsets
+        margin = 1e-3 * texel_size
+        crossing = (sides.max(axis=0) > margin) & (sides.min(axis=0) < -margin)
+        return normals[crossing], offsets[crossing]
 
     def _maybe_subdivide(self, power, clip_below):
         self._strongest_shot = max(self._strongest_shot, power)

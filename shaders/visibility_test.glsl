@@ -40,10 +40,14 @@ bool texel_sees(ivec3 texel, vec3 point, vec3 normal, float own, uint surface,
                 Tolerance tolerance) {
     vec2 stored_texel = texelFetch(u_visibility, texel, 0).rg;
     float stored = stored_texel.r;
-    bool same_surface = (floatBitsToUint(stored_texel.g) & 0xFFFu) == (surface & 0xFFFu);
-    if (own <= stored + (same_surface ? tolerance.own_surface : tolerance.other)) return true;
+    if (own <= stored + tolerance.other) return true;
     vec3 origin, direction;
     texel_ray(texel, origin, direction);
+    bool same_surface = (floatBitsToUint(stored_texel.g) & 0xFFFu) == (surface & 0xFFFu);
+    // The own surface, seen where the map texel's ray meets it near the receiver: a floor
+    // seen past a wall standing on it is the same surface, but not near.
+    if (same_surface && own <= stored + tolerance.own_surface
+        && distance(origin + stored * direction, point) <= tolerance.reach) return true;
     float facing = dot(normal, direction);
     if (facing == 0.0) return false;
     float along = dot(normal, point - origin) / facing;
@@ -81,11 +85,11 @@ float visible_from_eye(vec3 world, vec3 normal, float surface) {
     vec3 to_eye = u_orthographic != 0 ? -(u_frame[2]) : -normalize(u_frame * local);
     float cos_incidence = clamp(abs(dot(normal, to_eye)), 0.02, 1.0);
     float tan_incidence = sqrt(1.0 - cos_incidence * cos_incidence) / cos_incidence;
-    // The 3x3 texels around lie up to 1.5 texels from the receiver's ray; on its plane a
-    // texel's footprint stretches by 1 / cos.
+    // On the receiver's plane a map texel's footprint stretches by 1 / cos; the receiver's
+    // own texel's ray meets it within that (the 3x3 texels around, only through the depth).
     Tolerance tolerance = Tolerance(u_epsilon + footprint * min(tan_incidence, 8.0) * 1.5,
                                     u_epsilon,
-                                    2.5 * footprint / cos_incidence);
+                                    1.0 * footprint / cos_incidence);
     uint own_surface = uint(surface);
     if (texel_sees(texel, local, local_normal, own, own_surface, tolerance)) return 1.0;
     if (u_neighbour_visibility == 0) return 0.0;

@@ -89,6 +89,53 @@ def test_light_coplanar_with_the_ceiling_is_neither_hidden_nor_doubled(ctx, gl_c
     assert abs(ledger.escaped[0] / ledger.emitted[0]) < 0.025
 
 
+def cluttered_furnace(albedo):
+    """A closed unit cube whose floor is two pieces meeting in T-junctions, with a block
+    standing on the floor, a zero-thickness fin standing on it, a 2 mm sliver and a 0.1 mm
+    square floating: every face emits 1 into the room and reflects albedo."""
+    emission, grey = (1.0,) * 3, (albedo,) * 3
+    builder = SceneBuilder()
+    for name, corners in scenes.CUBE_FACES.items():
+        if name != "bottom":
+            builder.quad(name, corners, grey, emission, two_sided=False)
+    builder.quad("floor", [(0, 0, 0), (0, 0, 1), (.5, 0, 1), (.5, 0, 0)], grey, emission,
+                 two_sided=False)
+    builder.quad("floor", [(.5, 0, 0), (.5, 0, 1), (1, 0, 1), (1, 0, 0)], grey, emission,
+                 two_sided=False, subdivisions=3)
+    builder.box("block", [(.1, .3, .1), (.1, .3, .4), (.4, .3, .4), (.4, .3, .1)], 0.0, grey,
+                emission)
+    for name, corners in (("fin", [(.7, 0, .2), (.7, 0, .8), (.7, .4, .8), (.7, .4, .2)]),
+                          ("sliver", [(.2, .6, .5), (.2, .6, .502), (.9, .6, .502), (.9, .6, .5)]),
+                          ("tiny", [(.5, .8, .5), (.5, .8, .5001), (.5001, .8, .5001),
+                                    (.5001, .8, .5)])):
+        builder.quad(name, corners, grey, emission, two_sided=False)
+        builder.quad(name, corners[::-1], grey, emission, two_sided=False)
+    return builder.build()
+
+
+@pytest.mark.parametrize("projection", ["HEMICUBE", "NONLINEAR"])
+def test_the_furnace_holds_around_touching_parts_t_junctions_and_slivers(ctx, gl_clean,
+                                                                         projection):
+    """In a closed room where every surface emits 1 and reflects 0.5, radiance is 2 and
+    every texel holds 1, whatever stands in it: a block and a fin touching the floor,
+    T-junctions, a sliver, a tiny square (texels inside the block excepted). Measured at 16
+    texels/m, 4 x 4 shooting blocks: median within 0.5 %, 99 % within 7.5 %, worst 11.5 % (a
+    floor texel at the fin's end); shooters straddling the fin lit each side from the other
+    before they were kept to one side: its bottom row was 34 % dark."""
+    images, samples, ledger, progress, _ = solve(cluttered_furnace(0.5), ctx,
+                                                 projection=projection, texel_density=16,
+                                                 threshold=0.002, hemicube_resolution=64)
+    values, positions, _ = occupied_texels(images, samples)
+    x, y, z = positions.T
+    inside_block = (x > .1) & (x < .4) & (z > .1) & (z < .4) & (y < .3 - 1e-4)
+    error = np.abs(values[~inside_block, 0] - 1.0)
+    assert progress.converged
+    assert np.median(error) < 0.01
+    assert np.percentile(error, 99) < 0.09
+    assert error.max() < 0.15
+    assert ledger.imbalance() < 1e-4
+
+
 def test_tiny_huge_and_sliver_triangles_with_t_junctions_follow_cos_over_r_squared(ctx,
                                                                                  gl_clean):
     """One scene: a 200 m floor of 100 m triangles, part of it cut into small quads whose
@@ -315,9 +362,9 @@ def two_rooms():
 @pytest.mark.parametrize("projection", ["HEMICUBE", "NONLINEAR"])
 def test_a_zero_thickness_wall_keeps_the_dark_room_dark(ctx, gl_clean, projection):
     """Nothing in the room at x > 0 sees the light or anything it lights. Measured: the texel
-    column next to the wall gets 1.4-1.8 % of the lit room's median (5.7 % before the
-    visibility test knew which surface a map texel holds), everything farther 0.1-0.2 % (that
-    column's light, reflected)."""
+    column next to the wall gets 0.55-0.67 % of the lit room's median (5.7 % before the
+    visibility test knew which surface a map texel holds, and where on it), everything farther
+    about 0.1 % (that column's light, reflected)."""
     density = 13
     images, samples, ledger, _, _ = solve(two_rooms(), ctx, projection=projection,
                                           texel_density=density, threshold=0.01)
@@ -326,6 +373,6 @@ def test_a_zero_thickness_wall_keeps_the_dark_room_dark(ctx, gl_clean, projectio
     lit = np.median(values[x < -1e-6, 0])
     next_to_wall = (x > 1e-6) & (x < 1.0 / density)
     farther = x >= 1.0 / density
-    assert values[next_to_wall].max() < 0.025 * lit
+    assert values[next_to_wall].max() < 0.01 * lit
     assert values[farther].max() < 0.0025 * lit
     assert ledger.imbalance() < 1e-4
