@@ -328,7 +328,15 @@ class Solver:
         self._epsilon = 1e-5 * self._radius
         # Hemisphere maps are twice the hemicube's side: the same texels per radian at the zenith.
         self._map_size = settings.hemicube_resolution * (1 if settings.projection == "HEMICUBE" else 2)
-        self._surfaces = smooth_surfaces(scene) + 1   # 0 marks texels that do not receive
+        surfaces = smooth_surfaces(scene)
+        # Emitting surfaces first, so that they win ties in the visibility map (and are known
+        # there by their numbers): a lamp drawn in the ceiling's plane covers the ceiling.
+        emits = np.zeros(surfaces.max() + 1, dtype=bool)
+        emits[surfaces[scene.emission.max(axis=1) > 0.0]] = True
+        renumber = np.empty_like(emits, dtype=np.int64)
+        renumber[np.argsort(~emits, kind="stable")] = np.arange(len(emits))
+        self._emitting_surfaces = int(emits.sum())
+        self._surfaces = renumber[surfaces] + 1   # 0 marks texels that do not receive
         back_of = getattr(scene, "back_of", None)
         if back_of is not None:   # a back face is its front's surface: they are one sheet
             copies = back_of >= 0
@@ -448,6 +456,7 @@ class Solver:
         receivers = {"u_resolution": float(self._map_size),
                      "u_epsilon": self._epsilon, "u_ortho_half": self._radius,
                      "u_neighbour_visibility": int(self.settings.neighbour_visibility),
+                     "u_emitting_surfaces": self._emitting_surfaces,
                      "u_visibility": 0, "u_position": 1, "u_normal": 2, "u_albedo": 3,
                      "u_tangent": 4}
         constants = {
@@ -1149,8 +1158,9 @@ class Solver:
 def smooth_surfaces(scene):
     """A number per triangle for the smooth surface it belongs to: triangles joined across
     shared edges that bend by less than SMOOTH_SURFACE_DEGREES (a curved mesh's facets are
-    one surface; a box's faces, or a wall and the floor it stands on, are several). The
-    visibility test forgives a receiver small depth differences against its own surface only."""
+    one surface; a box's faces, or a wall and the floor it stands on, are several), and the
+    triangles of one object in one plane (pieces meeting at T-junctions). The visibility test
+    forgives a receiver small depth differences against its own surface only."""
     corners = scene.vertices[scene.triangles]
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
@@ -1163,6 +1173,12 @@ def smooth_surfaces(scene):
     a, b = owners[shared], owners[shared + 1]
     smooth = (normals[a] * normals[b]).sum(axis=1) > math.cos(math.radians(SMOOTH_SURFACE_DEGREES))
     a, b = a[smooth], b[smooth]
+    lo, hi = scene.bounds()
+    step = 1e-5 * max(float(np.linalg.norm(hi - lo)), 1e-9)
+    plane = np.column_stack([scene.object_index, np.round(normals * 1e4),
+                             np.round((normals * corners[:, 0]).sum(axis=1) / step)])
+    _, first, group = np.unique(plane, axis=0, return_index=True, return_inverse=True)
+    a, b = np.concatenate([a, np.arange(count)]), np.concatenate([b, first[group.ravel()]])
     label = np.arange(count)
     while True:   # connected components: pull both ends to the smaller label, then jump
         joined = np.minimum(label[a], label[b])

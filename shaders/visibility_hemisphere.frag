@@ -6,6 +6,7 @@
 // front of the eye is left open.
 flat in vec4 g_plane;
 flat in float g_surface;
+flat in int g_faces_away;
 uniform float u_resolution;
 layout(location = 0) out vec2 out_distance;
 
@@ -16,5 +17,5 @@ void main() {
     vec3 direction = inverse_stereographic(gl_FragCoord.xy / u_resolution * 2.0 - 1.0);
     float distance = g_plane.w / dot(g_plane.xyz, direction);
     if (!(distance > 0.0)) discard;
-    out_distance = stored_distance(distance, g_surface);
+    out_distance = stored_distance(distance, g_surface, g_faces_away != 0);
 }

@@ -15,15 +15,20 @@ in float v_caster_level[];
 in float v_surface[];
 flat out vec4 g_plane;  // the triangle's plane in the hemisphere's frame: normal, offset
 flat out float g_surface;
+flat out int g_faces_away;
 
 #include "projection.glsl"
+#include "visibility_store.glsl"
 
 const float MAX_SUB_EDGE_ANGLE = 0.1309;  // 7.5 degrees
+
+bool g_away;   // of the triangle being emitted
 
 void emit(vec3 local, int side, vec4 plane) {
     vec3 h = hemisphere_local(local, side);
     g_plane = plane;
     g_surface = v_surface[0];
+    g_faces_away = int(g_away);
     gl_Position = vec4(stereographic(h), 0.0, 1.0);
     gl_ClipDistance[0] = h.z;
     gl_Layer = side;
@@ -38,6 +43,7 @@ void main() {
     int side = gl_InvocationID;
     if (side >= u_face_count) return;
     vec3 c0 = v_local[0], c1 = v_local[1], c2 = v_local[2];
+    g_away = faces_away_from_eye(c0, c1, c2);
     vec3 n = cross(c1 - c0, c2 - c0);
     float size = max(v_distance[0], max(v_distance[1], v_distance[2]));
     if (abs(dot(n, c0)) <= 1e-6 * length(n) * size) return;  // edge-on: no solid angle

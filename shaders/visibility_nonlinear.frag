@@ -4,6 +4,7 @@
 // and each edge), and it stores the true distance along that direction to the triangle.
 flat in vec3 g_corner[3];
 flat in float g_surface;
+flat in int g_faces_away;
 uniform float u_resolution;
 layout(location = 0) out vec2 out_distance;
 
@@ -23,5 +24,5 @@ void main() {
     vec3 n = cross(g_corner[1] - g_corner[0], g_corner[2] - g_corner[0]);
     float distance = dot(n, g_corner[0]) / dot(n, d);
     if (!(distance > 0.0)) discard;
-    out_distance = stored_distance(distance, g_surface);
+    out_distance = stored_distance(distance, g_surface, g_faces_away != 0);
 }

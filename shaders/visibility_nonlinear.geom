@@ -13,8 +13,10 @@ in vec3 v_world[];
 in float v_surface[];
 flat out vec3 g_corner[3];   // the triangle in this hemisphere's frame
 flat out float g_surface;
+flat out int g_faces_away;
 
 #include "projection.glsl"
+#include "visibility_store.glsl"
 
 const int ARC_SAMPLES = 12;
 
@@ -34,6 +36,8 @@ void bound_arc(inout vec4 box, vec3 a, vec3 b) {
 void main() {
     int side = gl_InvocationID;
     if (side >= u_face_count) return;
+    bool away = faces_away_from_eye(to_local(v_world[0]), to_local(v_world[1]),
+                                    to_local(v_world[2]));
     vec3 c[3];
     for (int i = 0; i < 3; ++i) c[i] = hemisphere_local(to_local(v_world[i]), side);
     vec3 n = cross(c[1] - c[0], c[2] - c[0]);
@@ -63,6 +67,7 @@ void main() {
     for (int i = 0; i < 4; ++i) {
         g_corner = c;
         g_surface = v_surface[0];
+        g_faces_away = int(away);
         gl_Position = vec4(corners[i], 0.0, 1.0);
         gl_Layer = side;
         EmitVertex();

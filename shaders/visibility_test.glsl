@@ -4,6 +4,7 @@ uniform sampler2D u_albedo;          // a receiving texel's alpha: its surface's
 uniform float u_resolution;
 uniform float u_epsilon;             // absolute depth tolerance, scaled to the scene
 uniform int u_neighbour_visibility;  // the paper's fix (Sec. 5.2): the 3x3 texels around vote
+uniform int u_emitting_surfaces;     // surfaces 1..this emit
 
 // The ray the map sampled at a texel's centre, in the eye's frame: origin (non-zero only for
 // the sun's parallel rays) and unit direction.
@@ -40,17 +41,23 @@ bool texel_sees(ivec3 texel, vec3 point, vec3 normal, float own, uint surface,
                 Tolerance tolerance) {
     vec2 stored_texel = texelFetch(u_visibility, texel, 0).rg;
     float stored = stored_texel.r;
-    if (own <= stored + tolerance.other) return true;
+    uint stored_key = floatBitsToUint(stored_texel.g) & 0x1FFFu;
+    uint stored_surface = stored_key & 0xFFFu;
+    bool same_surface = stored_surface == (surface & 0xFFFu);
     vec3 origin, direction;
     texel_ray(texel, origin, direction);
-    bool same_surface = (floatBitsToUint(stored_texel.g) & 0xFFFu) == (surface & 0xFFFu);
+    float facing = dot(normal, direction);
+    float along = facing != 0.0 ? dot(normal, point - origin) / facing : -1.0;
+    // An emitter in the receiver's plane over it (a lamp drawn in the ceiling) takes the
+    // light: both receiving it would make energy.
+    if (!same_surface && stored_key >= 1u && stored_key <= uint(u_emitting_surfaces)
+        && abs(along - stored) <= u_epsilon) return false;
+    if (own <= stored + tolerance.other) return true;
     // The own surface, seen where the map texel's ray meets it near the receiver: a floor
     // seen past a wall standing on it is the same surface, but not near.
     if (same_surface && own <= stored + tolerance.own_surface
         && distance(origin + stored * direction, point) <= tolerance.reach) return true;
-    float facing = dot(normal, direction);
     if (facing == 0.0) return false;
-    float along = dot(normal, point - origin) / facing;
     return along > 0.0 && along <= stored + u_epsilon
         && distance(origin + along * direction, point) <= tolerance.reach;
 }

@@ -60,7 +60,8 @@ def test_light_coplanar_with_the_ceiling_is_neither_hidden_nor_doubled(ctx, gl_c
     """The Cornell light drawn in the ceiling's plane, over a black ceiling: the ceiling
     around and under it hides none of its light (floor = rho L F), and in a closed box of
     albedo 0.5 the light and the ceiling behind it do not both absorb the same light: the
-    ledger's escaped share stays near 0 (measured -1.9 %; 1 mm apart -0.7 %)."""
+    ledger's escaped share stays near 0 (measured -0.2 %; -1.9 % while both received it;
+    1 mm apart -0.7 %)."""
     albedo, radiance = 0.5, 10.0
     light = [(.35, .35, 1), (.35, .65, 1), (.65, .65, 1), (.65, .35, 1)]
     builder = SceneBuilder()
@@ -86,7 +87,7 @@ def test_light_coplanar_with_the_ceiling_is_neither_hidden_nor_doubled(ctx, gl_c
     assert progress.converged
     assert all(np.isfinite(image).all() for image in images)
     assert ledger.imbalance() < 1e-4
-    assert abs(ledger.escaped[0] / ledger.emitted[0]) < 0.025
+    assert abs(ledger.escaped[0] / ledger.emitted[0]) < 0.01
 
 
 def cluttered_furnace(albedo):
@@ -119,7 +120,7 @@ def test_the_furnace_holds_around_touching_parts_t_junctions_and_slivers(ctx, gl
     """In a closed room where every surface emits 1 and reflects 0.5, radiance is 2 and
     every texel holds 1, whatever stands in it: a block and a fin touching the floor,
     T-junctions, a sliver, a tiny square (texels inside the block excepted). Measured at 16
-    texels/m, 4 x 4 shooting blocks: median within 0.5 %, 99 % within 7.5 %, worst 11.5 % (a
+    texels/m, 4 x 4 shooting blocks: median within 0.8 %, 99 % within 7.5 %, worst 11.5 % (a
     floor texel at the fin's end); shooters straddling the fin lit each side from the other
     before they were kept to one side: its bottom row was 34 % dark."""
     images, samples, ledger, progress, _ = solve(cluttered_furnace(0.5), ctx,
