@@ -31,6 +31,7 @@ class Atlas:
 # takes seconds on scenes of tens of thousands of triangles.
 CACHED_ATLASES = 4
 MIN_XATLAS_AREA = 1e-3   # smallest triangle area handed to xatlas, in its units
+MAX_XATLAS_EXTENT = 1e6  # largest scene size handed to xatlas, in its units
 _cache = OrderedDict()
 
 
@@ -125,10 +126,15 @@ def _copy(atlas):
 def _units_per_metre(scene, chosen, density):
     """The scale meshes are handed to xatlas in: texels, or finer where a triangle would be
     below xatlas's fixed smallest face area (1.2e-7 units^2), which it drops however many
-    texels it would cover (a 0.1 mm triangle at 0.5 texels per metre)."""
+    texels it would cover (a 0.1 mm triangle at 0.5 texels per metre). At most so fine that
+    the scene spans MAX_XATLAS_EXTENT units, where single floats still resolve 1/16 of one;
+    a triangle still too small is left out and listed in Atlas.unpacked."""
     scales = np.asarray(scene.object_texel_scale, dtype=np.float64)[scene.object_index[chosen]]
     smallest = float(np.min(scene.triangle_area[chosen] * scales ** 2))
-    return max(float(density), math.sqrt(MIN_XATLAS_AREA / smallest))
+    corners = scene.vertices[scene.triangles[chosen]].reshape(-1, 3)
+    extent = float(np.max(corners.max(axis=0) - corners.min(axis=0)) * scales.max())
+    finest = MAX_XATLAS_EXTENT / max(extent, 1e-30)
+    return max(float(density), min(math.sqrt(MIN_XATLAS_AREA / smallest), finest))
 
 
 def _atlas_of(scene, mesh_triangles, units):

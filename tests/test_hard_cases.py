@@ -171,6 +171,24 @@ def test_tiny_huge_and_sliver_triangles_with_t_junctions_follow_cos_over_r_squar
     assert ledger.imbalance() < 1e-4
 
 
+def test_a_triangle_too_small_to_chart_is_listed_and_the_rest_bakes(ctx, gl_clean):
+    """A 0.1 micrometre triangle in a 2 km scene is below what xatlas charts even in its finest
+    units: it is listed in atlas.unpacked (the extension warns, naming its object), still
+    occludes, and the rest bakes with a balanced ledger."""
+    lamp = PointLight(position=(0.0, 0.0, 2.0), power=100.0)
+    builder = SceneBuilder()
+    builder.quad("floor", [(-1000, -1000, 0), (1000, -1000, 0), (1000, 1000, 0),
+                           (-1000, 1000, 0)], (0.5,) * 3)
+    builder.quad("speck", [(0, 0, 1), (1e-7, 0, 1), (1e-7, 1e-7, 1), (0, 1e-7, 1)], (0.5,) * 3)
+    scene = builder.build([lamp])
+    images, _, ledger, _, atlas = solve(scene, ctx, texel_density=0.05, max_shots=1)
+    speck = np.nonzero(scene.object_index == scene.object_names.index("speck"))[0]
+    assert sorted(atlas.unpacked) == sorted(speck)
+    assert set(atlas.triangles) == set(range(len(scene.triangles))) - set(speck)
+    assert all(np.isfinite(image).all() for image in images)
+    assert ledger.imbalance() < 1e-4
+
+
 @pytest.mark.parametrize("projection", PROJECTIONS)
 def test_furnace_of_albedo_0_99_with_the_ambient_term(ctx, gl_clean, projection):
     """Closed cube, emission 1, albedo 0.99: radiance 99. Shooting alone would need every
