@@ -9,6 +9,7 @@ import bpy
 import numpy as np
 
 from ..native import PointLight, Scene, SceneError, SpotLight, SunLight
+from ..native.scene import triangle_areas
 from . import display
 
 MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (native checks < 1)
@@ -255,7 +256,7 @@ class _Exporter:
         """Triangles the solver accepts: finite corners and an area above native.Scene's
         degenerate limit. The others are skipped with one warning naming the object."""
         finite = np.isfinite(corners).all(axis=(1, 2))
-        degenerate = finite & _degenerate(np.where(finite[:, None, None], corners, 0.0))
+        degenerate = finite & triangle_areas(np.where(finite[:, None, None], corners, 0.0))[1]
         usable = finite & ~degenerate
         if usable.all():
             return usable
@@ -519,15 +520,6 @@ def _principled_diffuse_share(node):
     f0 = ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0 * value("Specular IOR Level", 0.5)
     share = (1.0 - value("Metallic", 0.0)) * (1.0 - value("Transmission Weight", 0.0))
     return share * (1.0 - min(max(f0, 0.0), 1.0))
-
-
-def _degenerate(corners):
-    """native.Scene's test for a zero-area triangle, which it refuses: an area at most 1e-7
-    of the longest edge squared."""
-    doubled = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    area = 0.5 * np.linalg.norm(doubled, axis=1)
-    edge = np.max(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2), axis=1)
-    return area <= 1e-7 * np.maximum(edge, 1e-30) ** 2
 
 
 def _clamp_albedo(colour, material, exporter):

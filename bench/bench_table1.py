@@ -14,7 +14,7 @@ from pathlib import Path
 
 from common import device_name, load_scene, save_results  # also puts the repo on sys.path
 from native import PROJECTIONS, Settings, Solver, create_context
-from native.atlas import clear_cache
+from native.atlas import charted_triangles, clear_cache
 from native.gpu import using
 
 # The paper's Table 1: shots, and its GPU element counts per size.
@@ -29,8 +29,7 @@ HEMICUBE = 256
 
 def charted_area(scene):
     """Square metres that get texels: receiving and emitting triangles."""
-    charted = scene.receive | (scene.emission.max(axis=1) > 0.0)
-    return float(scene.triangle_area[charted].sum())
+    return float(scene.triangle_area[charted_triangles(scene)].sum())
 
 
 def bake(scene, ctx, density, shots, projection, profile):

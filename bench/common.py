@@ -9,6 +9,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 from native import Scene  # noqa: E402  (found through the path above)
+from native.atlas import charted_triangles  # noqa: E402
 from native.gpu import using  # noqa: E402
 
 SCENES = ROOT / "bench" / "scenes"
@@ -53,7 +54,7 @@ def texel_density_for_size(scene, name, size):
 def narrowest_object(scene):
     """Metres: the smallest, over the objects with texels, of the second-smallest side of the
     object's bounding box (a flat quad's narrow side, a column's width)."""
-    charted = scene.receive | (scene.emission.max(axis=1) > 0.0)
+    charted = charted_triangles(scene)
     sides = []
     for index in np.unique(scene.object_index[charted]):
         corners = scene.vertices[scene.triangles[charted & (scene.object_index == index)]]

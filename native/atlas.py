@@ -46,7 +46,7 @@ def build_atlas(scene, density, max_size=4096, padding=2, charted=None):
         raise SettingsError(f"texel density must be a positive number of texels per metre, "
                             f"got {density}")
     if charted is None:
-        charted = scene.receive | (scene.emission.max(axis=1) > 0.0)
+        charted = charted_triangles(scene)
     chosen = np.nonzero(charted)[0]
     if len(chosen) == 0:
         raise SettingsError("no triangle receives a lightmap: enable 'receive' on an object")
@@ -60,6 +60,11 @@ def build_atlas(scene, density, max_size=4096, padding=2, charted=None):
     while len(_cache) > CACHED_ATLASES:
         _cache.popitem(last=False)
     return result
+
+
+def charted_triangles(scene):
+    """The triangles that get texels by default: receivers and emitters (which shoot)."""
+    return scene.receive | (scene.emission.max(axis=1) > 0.0)
 
 
 def clear_cache():

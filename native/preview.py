@@ -65,7 +65,7 @@ def render_preview(solver, lightmaps, eye, target, up=(0.0, 1.0, 0.0), fov=40.0,
             framebuffer.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
             texture.use(location=0)
             # Where back faces have texels of their own, their copies show them from behind.
-            two_sided = getattr(scene, "back_of", None) is not None
+            two_sided = scene.back_of is not None
             ctx.enable(moderngl.DEPTH_TEST | (moderngl.CULL_FACE if two_sided else 0))
             vao.render(moderngl.TRIANGLES)
             ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)

@@ -8,6 +8,15 @@ import numpy as np
 from .errors import SceneError
 
 
+def triangle_areas(corners):
+    """Areas of (T, 3, 3) corner triangles and which are degenerate (zero area): at most 1e-7
+    of their longest edge squared. Scene refuses those; the extension skips them."""
+    doubled = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    area = 0.5 * np.linalg.norm(doubled, axis=1)
+    edge = np.max(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2), axis=1)
+    return area, area <= 1e-7 * np.maximum(edge, 1e-30) ** 2
+
+
 def _vec3(value, name):
     array = np.asarray(value, dtype=np.float64).reshape(-1)
     if array.shape != (3,):
@@ -131,6 +140,7 @@ class Scene:
         self.receive = per_triangle(self.receive, True, bool)
         self.occlude = per_triangle(self.occlude, True, bool)
         self.receive_back = per_triangle(self.receive_back, False, bool)
+        self.back_of = None   # with_back_faces(): the original of each copy, -1 for originals
         self.sky = _vec3(self.sky, "sky")
         self.object_index = per_triangle(self.object_index, 0, np.int64)
         self.albedo_texture_index = per_triangle(self.albedo_texture_index, -1, np.int64)
@@ -169,11 +179,7 @@ class Scene:
             if self.normals.shape != self.vertices.shape or not np.isfinite(self.normals).all():
                 raise SceneError("normals must be finite and of the same shape as vertices")
 
-        corners = self.vertices[self.triangles]
-        doubled = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        area = 0.5 * np.linalg.norm(doubled, axis=1)
-        edge = np.max(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2), axis=1)
-        degenerate = area <= 1e-7 * np.maximum(edge, 1e-30) ** 2
+        area, degenerate = triangle_areas(self.vertices[self.triangles])
         if degenerate.any():
             self._fail("the triangle is degenerate (zero area); merge its vertices or delete it",
                        int(np.argmax(degenerate)))

@@ -18,7 +18,7 @@ import time
 import moderngl
 import numpy as np
 
-from .atlas import build_atlas
+from .atlas import build_atlas, charted_triangles
 from .errors import GPUMemoryError, SettingsError
 from .gpu import GLObjects, create_context, query_pool, using
 from .scene import SpotLight, SunLight
@@ -49,6 +49,8 @@ MAX_COARSER_LEVELS = 2
 # whose power is at least this share of the strongest one's. Each shot then takes exactly the
 # energy it read; what its texels receive meanwhile stays unshot for a later shot.
 BATCH_MIN_SHARE = 0.25
+# A plane crosses a shooting block when texels lie this share of a texel beyond it each way.
+CROSSING_MARGIN = 1e-3
 # Edges bending less than this join triangles into one smooth surface (see smooth_surfaces).
 SMOOTH_SURFACE_DEGREES = 40.0
 # The regions: the first arg-max pyramid level with at most this many texels.
@@ -337,10 +339,9 @@ class Solver:
         renumber[np.argsort(~emits, kind="stable")] = np.arange(len(emits))
         self._emitting_surfaces = int(emits.sum())
         self._surfaces = renumber[surfaces] + 1   # 0 marks texels that do not receive
-        back_of = getattr(scene, "back_of", None)
-        if back_of is not None:   # a back face is its front's surface: they are one sheet
-            copies = back_of >= 0
-            self._surfaces[copies] = self._surfaces[back_of[copies]]
+        if scene.back_of is not None:   # a back face is its front's surface: one sheet
+            copies = scene.back_of >= 0
+            self._surfaces[copies] = self._surfaces[scene.back_of[copies]]
 
         self._check_surface_fits()
         started = time.perf_counter()
@@ -503,7 +504,7 @@ class Solver:
         if not np.isfinite(density) or density <= 0.0:
             return  # build_atlas names the bad value
         scene = self.scene
-        charted = scene.receive | (scene.emission.max(axis=1) > 0.0)
+        charted = charted_triangles(scene)
         scales = np.asarray(scene.object_texel_scale)[scene.object_index[charted]]
         surface = float(np.sum(scene.triangle_area[charted] * scales ** 2))  # m^2 at density 1
         needed = surface * density ** 2 * BYTES_PER_TEXEL
@@ -960,10 +961,8 @@ class Solver:
         if len(offsets) == 0:
             return members
         sides = points[members] @ normals.T - offsets                    # (members, planes)
-        own = points[strongest] @ normals.T - offsets
-        margin = 1e-3 * texel_size
-        crossing = (sides.max(axis=0) > margin) & (sides.min(axis=0) < -margin)
-        return members[(sides[:, crossing] * own[crossing] >= 0.0).all(axis=1)]
+        own_side = np.sign(points[strongest] @ normals.T - offsets)
+        return members[(sides * own_side >= -CROSSING_MARGIN * texel_size).all(axis=1)]
 
     def _planes_crossing(self, points, texel_size):
         """Planes (normals, offsets) of the occluders near ``points`` that have some of them
@@ -976,7 +975,7 @@ class Solver:
                           & (self._occluder_high[candidates] >= low).all(axis=1)]
         normals, offsets = self._occluder_normals[near], self._occluder_offsets[near]
         sides = points @ normals.T - offsets
-        margin = 1e-3 * texel_size
+        margin = CROSSING_MARGIN * texel_size
         crossing = (sides.max(axis=0) > margin) & (sides.min(axis=0) < -margin)
         return normals[crossing], offsets[crossing]
 
@@ -1117,6 +1116,7 @@ class Solver:
             textures = [gl.texture(size, 4), gl.texture(size, 4)]
             self._output = [(t, gl.framebuffer([t])) for t in textures]
         ambient = self.ambient_radiance() if self.settings.ambient else np.zeros(3)
+        _set(self._programs["resolve"], "u_ambient", tuple(ambient))
         pages = []
         for page in self._pages:
             (first, first_fbo), (second, second_fbo) = self._output
@@ -1124,7 +1124,6 @@ class Solver:
             page.textures["position"].use(location=0)
             page.textures["albedo"].use(location=1)
             page.textures["irradiance"].use(location=2)
-            _set(self._programs["resolve"], "u_ambient", tuple(ambient))
             self._fullscreen["resolve"].render(moderngl.TRIANGLES, vertices=3)
             source, target = (first, first_fbo), (second, second_fbo)
             for _ in range(self.settings.padding + 1):
