@@ -185,6 +185,12 @@ class GLObjects:
     def vertex_array(self, program, content):
         return self.keep(self.ctx.vertex_array(program, content))
 
+    def release_now(self, *objects):
+        """Release these objects before the rest (temporaries of one phase), in the order given."""
+        for obj in objects:
+            self._objects.remove(obj)
+            obj.release()
+
     def release(self):
         while self._objects:
             self._objects.pop().release()

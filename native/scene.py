@@ -261,29 +261,32 @@ class Scene:
         return total
 
     def with_back_faces(self):
-        """The scene with a receiving back face for each receiving triangle flagged in
-        receive_back: a copy with its own vertices (so it charts apart), wound the other way,
-        that does not occlude twice and emits what the original emitted from its back (the
-        original then emits from its front only). Copies follow the original triangles."""
-        backs = np.nonzero(self.receive_back & self.receive)[0]
+        """The scene with a mirrored copy of each triangle whose back face the solver must
+        model: receiving triangles flagged in receive_back (the copy receives and reflects on
+        texels of its own) and emitters that emit from both faces (the copy emits what the
+        original emitted from its back; the original then emits from its front only, so every
+        emitter the solver sees is one-sided). A copy has its own vertices (so it charts
+        apart), is wound the other way and does not occlude twice. Copies follow the
+        original triangles."""
+        receiving_back = self.receive_back & self.receive
+        emitting_back = self.emission_two_sided & (self.emission.max(axis=1) > 0.0)
+        backs = np.nonzero(receiving_back | emitting_back)[0]
         if len(backs) == 0:
             return self
         count, vertex_count = len(self.triangles), len(self.vertices)
         corners = self.triangles[backs][:, ::-1]
         extend = lambda array, values: np.concatenate([array, values])
-        front_emission = np.where(self.emission_two_sided[backs, None], self.emission[backs], 0.0)
-        two_sided = self.emission_two_sided.copy()
-        two_sided[backs] = False
+        back_emission = np.where(emitting_back[backs, None], self.emission[backs], 0.0)
         copy = Scene(
             vertices=extend(self.vertices, self.vertices[corners.ravel()]),
             triangles=extend(self.triangles,
                              vertex_count + np.arange(3 * len(backs)).reshape(-1, 3)),
             albedo=extend(self.albedo, self.albedo[backs]),
-            emission=extend(self.emission, front_emission),
+            emission=extend(self.emission, back_emission),
             normals=None if self.normals is None else extend(self.normals,
                                                             -self.normals[corners.ravel()]),
-            emission_two_sided=extend(two_sided, np.zeros(len(backs), bool)),
-            receive=extend(self.receive, np.ones(len(backs), bool)),
+            emission_two_sided=np.zeros(count + len(backs), bool),
+            receive=extend(self.receive, receiving_back[backs]),
             object_index=extend(self.object_index, self.object_index[backs]),
             object_names=list(self.object_names), object_texel_scale=list(self.object_texel_scale),
             albedo_uv=None if self.albedo_uv is None else extend(self.albedo_uv,

@@ -7,8 +7,8 @@ evaluation paper), in lightmap space, with the hemicube for visibility.
     pages = solver.result()                              # current lightmaps, any time
     solver.release()                                     # every GL object, in one place
 
-Per texel the maps hold world position and area, normal, tangent, albedo, emission, the
-accumulated irradiance E and the unshot radiance. A lightmap texel is rho * E / pi, the
+Per texel the maps hold world position and area, normal, albedo, the receiving surface's
+number, the subdivision level, the accumulated irradiance E and the unshot radiance. A lightmap texel is rho * E / pi, the
 reflected diffuse radiance a Cycles DIFFUSE bake (direct + indirect + colour) writes.
 """
 from dataclasses import dataclass, field
@@ -23,12 +23,14 @@ from .errors import GPUMemoryError, SettingsError
 from .gpu import GLObjects, create_context, query_pool, using
 from .scene import SpotLight, SunLight
 
-# Per texel: position+area, normal+size, irradiance, unshot, emission, albedo (RGBA32F, 16 B
-# each), tangent (RGBA16F, 8 B), the rasterization depth (4 B). Albedo needs 32 bits: half
-# floats hold 0.99 as 0.99023, 2.4 % more light in a closed room of that albedo.
-BYTES_PER_TEXEL = 6 * 16 + 8 + 4
+# Per texel (see _allocate_page): position + area, irradiance, unshot radiance + texel size
+# (RGBA32F, 16 B each: sums over thousands of shots), albedo + surface number (RGBA16, 8 B:
+# 16-bit fixed point holds 0.99 within 8e-6, where half floats' 0.99023 put 2.4 % more light
+# in a closed room of that albedo), the octahedral normal (RG16, 4 B) and the subdivision
+# level (R8, 1 B). The rasterization depth (4 B) lives only until the irradiance is made.
+BYTES_PER_TEXEL = 3 * 16 + 8 + 4 + 1
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
-                 ("in_albedo", 3), ("in_emission", 4), ("in_receive", 1))
+                 ("in_albedo", 3), ("in_emission", 3), ("in_receive", 1))
 PHASES = ("preprocess", "selection", "visibility", "subdivision", "receivers", "postprocess")
 # A shooter takes the texels of its block whose unshot radiance is at least this share of the
 # strongest one's; the rest wait for a later shot. Lumping a bright corner with dim texels
@@ -55,6 +57,12 @@ CROSSING_MARGIN = 1e-3
 SMOOTH_SURFACE_DEGREES = 40.0
 # The regions: the first arg-max pyramid level with at most this many texels.
 SELECTION_REGIONS = 1024
+# What a shooter reads of its block: (attachment of _Page.blocks, components).
+BLOCK_MAPS = ((0, 4), (1, 2), (2, 4))
+# Surfaces are numbered 1..SURFACE_NUMBERS (the visibility map keeps 12 bits), then again.
+SURFACE_NUMBERS = 4095
+# The octahedral normal's steps each way of 0 in its 16-bit channels (texel_maps.glsl).
+OCT_STEPS = 32767.0
 
 
 @dataclass
@@ -143,20 +151,19 @@ class _Shooter:
     frame: np.ndarray           # columns t, b, n
     area: float
     quad: list                  # 4 world-space corners
-    radiance_front: np.ndarray
-    radiance_back: np.ndarray
+    radiance: np.ndarray        # leaving its front (every shooter is one-sided)
     unshot: np.ndarray          # (N, 4) float32: what this shot takes from each texel
 
 
 @dataclass
 class _Page:
-    attributes: object      # framebuffer: position, normal, tangent, albedo, emission (+depth)
-    receivers: object       # framebuffer: irradiance, unshot
+    blocks: object          # framebuffer: position, normal, unshot (read back per shooter)
     unshot_only: object     # framebuffer: unshot
     area_only: object       # framebuffer: position (area in .w)
-    level_only: object      # framebuffer: tangent (subdivision level in .w)
+    level_only: object      # framebuffer: subdivision level
     textures: dict
     pyramid: list = field(default_factory=list)   # (texture, framebuffer) from block level to 1x1
+    receivers: object = None   # framebuffer: irradiance, unshot (made after rasterization)
 
 
 class Solver:
@@ -238,15 +245,15 @@ class Solver:
             samples = []
             for page in self._pages:
                 position = self._read(page.textures["position"])
-                normal = self._read(page.textures["normal"])
-                albedo = self._read(page.textures["albedo"])
+                texel_size = self._read(page.textures["unshot"])[..., 3]
                 area = position[..., 3]
                 coverage = np.zeros_like(area)
-                np.divide(area, normal[..., 3] ** 2, out=coverage, where=normal[..., 3] > 0)
+                np.divide(area, texel_size ** 2, out=coverage, where=texel_size > 0)
                 samples.append({
-                    "position": position[..., :3], "normal": normal[..., :3], "area": area,
-                    "coverage": coverage,
-                    "occupied": (area > 0) & (albedo[..., 3] > 0)})
+                    "position": position[..., :3],
+                    "normal": _decode_normals(self._read(page.textures["normal"])),
+                    "area": area, "coverage": coverage,
+                    "occupied": (area > 0) & (self._read(page.textures["material"])[..., 3] > 0)})
             return samples
 
     def ledger(self):
@@ -273,16 +280,15 @@ class Solver:
         totals["area"] = 0.0
         for page in self._pages:
             maps = {name: self._read(page.textures[name])
-                    for name in ("position", "albedo", "irradiance", "unshot", "emission")}
+                    for name in ("position", "material", "irradiance", "unshot")}
             area = maps["position"][..., 3:4].astype(np.float64)
-            albedo = maps["albedo"][..., :3] * (maps["albedo"][..., 3:4] > 0)
+            albedo = maps["material"][..., :3] * (maps["material"][..., 3:4] > 0)
             irradiance = maps["irradiance"][..., :3] * area
             totals["area"] += float(area.sum())
             totals["albedo_area"] += (albedo * area).reshape(-1, 3).sum(axis=0)
             totals["received"] += irradiance.reshape(-1, 3).sum(axis=0)
             totals["absorbed"] += ((1.0 - albedo) * irradiance).reshape(-1, 3).sum(axis=0)
-            radiance = maps["unshot"][..., :3] + maps["unshot"][..., 3:4] * maps["emission"][..., :3]
-            totals["unshot"] += math.pi * (radiance * area).reshape(-1, 3).sum(axis=0)
+            totals["unshot"] += math.pi * (maps["unshot"][..., :3] * area).reshape(-1, 3).sum(axis=0)
         queued = [shot for shot in self._queue if not isinstance(shot, _Shooter)]
         for light in self._pending + queued:
             totals["unshot"] += self._light_power(light)
@@ -338,7 +344,9 @@ class Solver:
         renumber = np.empty_like(emits, dtype=np.int64)
         renumber[np.argsort(~emits, kind="stable")] = np.arange(len(emits))
         self._emitting_surfaces = int(emits.sum())
-        self._surfaces = renumber[surfaces] + 1   # 0 marks texels that do not receive
+        # 0 marks texels that do not receive.
+        self._surfaces = renumber[surfaces] % SURFACE_NUMBERS + 1
+        self._emitting_surfaces = min(self._emitting_surfaces, SURFACE_NUMBERS)
         if scene.back_of is not None:   # a back face is its front's surface: one sheet
             copies = scene.back_of >= 0
             self._surfaces[copies] = self._surfaces[scene.back_of[copies]]
@@ -353,7 +361,6 @@ class Solver:
         self._programs = {
             "attributes": gl.program("raster.vert", "raster_attributes.frag", "raster.geom"),
             "area": gl.program("raster.vert", "raster_area.frag", "raster.geom"),
-            "init": gl.program("fullscreen.vert", "init_unshot.frag"),
             "block": gl.program("fullscreen.vert", "block_power.frag"),
             "argmax": gl.program("fullscreen.vert", "argmax.frag"),
             "visibility": gl.program("visibility.vert", "visibility.frag", "visibility.geom"),
@@ -374,7 +381,7 @@ class Solver:
             self._programs["count"] = gl.program("raster.vert", "shadow_count.frag", "raster.geom")
             self._programs["level"] = gl.program("raster.vert", "set_level.frag", "raster.geom")
         self._fullscreen = {name: gl.vertex_array(self._programs[name], [])
-                            for name in ("init", "block", "argmax", "patch", "light",
+                            for name in ("block", "argmax", "patch", "light",
                                          "resolve", "dilate")}
         self._set_constant_uniforms()
         self._albedo_textures = []
@@ -435,9 +442,9 @@ class Solver:
         block = 1 << (settings.shoot_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
                                               else 0))
         self._taken_vbo = gl.buffer(reserve=block * block * 24)
-        # Five RGBA32F maps of every block of a selection.
-        self._staging = gl.buffer(reserve=settings.shooters_per_selection * 5 * block * block
-                                  * 16)
+        # The BLOCK_MAPS of every block of a selection.
+        self._staging = gl.buffer(reserve=settings.shooters_per_selection * block * block * 4
+                                  * sum(components for _, components in BLOCK_MAPS))
         self._strongest_patch = 0.0
         self._strongest_shot = 0.0
         self._queue = []
@@ -458,14 +465,13 @@ class Solver:
                      "u_epsilon": self._epsilon, "u_ortho_half": self._radius,
                      "u_neighbour_visibility": int(self.settings.neighbour_visibility),
                      "u_emitting_surfaces": self._emitting_surfaces,
-                     "u_visibility": 0, "u_position": 1, "u_normal": 2, "u_albedo": 3,
-                     "u_tangent": 4}
+                     "u_visibility": 0, "u_position": 1, "u_normal": 2, "u_material": 3,
+                     "u_level": 4}
         constants = {
             "attributes": {"u_atlas_size": size, "u_albedo_texture": 0},
             "area": {"u_atlas_size": size},
-            "init": {"u_emission": 0},
             "block": {"u_block": 1 << self.settings.shoot_level,
-                      "u_position": 0, "u_unshot": 1, "u_emission": 2},
+                      "u_position": 0, "u_unshot": 1},
             "argmax": {"u_source": 0},
             "visibility": {"u_ortho_half": self._radius},
             "nonlinear": {"u_resolution": float(self._map_size)},
@@ -474,7 +480,7 @@ class Solver:
             "patch": receivers,
             "light": receivers,
             "take": {"u_atlas_size": size},
-            "resolve": {"u_position": 0, "u_albedo": 1, "u_irradiance": 2},
+            "resolve": {"u_position": 0, "u_material": 1, "u_irradiance": 2},
             "count": {**receivers, "u_atlas_size": size},
             "level": {**receivers, "u_atlas_size": size},
             "dilate": {"u_source": 0},
@@ -543,24 +549,20 @@ class Solver:
         return None
 
     def _allocate_page(self, size):
+        """A page's maps but the irradiance, which _rasterize makes once its depth is gone."""
         gl = self._gl
         textures = {
-            "position": gl.texture(size, 4),
-            "normal": gl.texture(size, 4),
-            "tangent": gl.texture(size, 4, "f2"),
-            "albedo": gl.texture(size, 4, "f4"),
-            "emission": gl.texture(size, 4),
-            "irradiance": gl.texture(size, 4),
-            "unshot": gl.texture(size, 4),
+            "position": gl.texture(size, 4),            # xyz, area
+            "normal": gl.texture(size, 2, "nu2"),       # octahedral (texel_maps.glsl)
+            "material": gl.texture(size, 4, "nu2"),     # albedo, surface number
+            "unshot": gl.texture(size, 4),              # radiance, texel size
+            "level": gl.texture(size, 1, "nu1"),        # subdivision level
         }
-        depth = gl.depth_texture(size)
         page = _Page(
-            attributes=gl.framebuffer([textures[n] for n in
-                                       ("position", "normal", "tangent", "albedo", "emission")], depth),
-            receivers=gl.framebuffer([textures["irradiance"], textures["unshot"]]),
+            blocks=gl.framebuffer([textures[n] for n in ("position", "normal", "unshot")]),
             unshot_only=gl.framebuffer([textures["unshot"]]),
             area_only=gl.framebuffer([textures["position"]]),
-            level_only=gl.framebuffer([textures["tangent"]]),
+            level_only=gl.framebuffer([textures["level"]]),
             textures=textures)
         block = 1 << self.settings.shoot_level
         level = (-(-size[0] // block), -(-size[1] // block))
@@ -586,12 +588,10 @@ class Solver:
         tex_uv = (scene.albedo_uv[tris] if scene.albedo_uv is not None
                   else np.zeros((len(tris), 3, 2)))
         texture_index = scene.albedo_texture_index[tris]
-        emission = np.concatenate([scene.emission[tris],
-                                   scene.emission_two_sided[tris, None].astype(float)], axis=1)
         per_corner = lambda values: np.repeat(values[:, None, :], 3, axis=1)
         vertex_data = np.concatenate([
             atlas.texels, positions, normals, tex_uv, per_corner(scene.albedo[tris]),
-            per_corner(emission),
+            per_corner(scene.emission[tris]),
             per_corner((scene.receive * self._surfaces)[tris, None].astype(float)),
         ], axis=2).astype("f4")
         # Draw in runs of (page, albedo texture).
@@ -609,21 +609,42 @@ class Solver:
         ctx = self.ctx
         self._prepare_subdivision(vbo, tris[order], atlas.page[order])
 
+        # The attributes, and the emission as the first unshot radiance, with a depth map the
+        # pages share in turn (pages are drawn in order).
+        depth = gl.depth_texture((atlas.width, atlas.height))
+        rasters = [gl.framebuffer([page.textures[name] for name in
+                                   ("position", "normal", "material", "unshot")], depth)
+                   for page in self._pages]
         for page in self._pages:
-            page.attributes.use()
-            page.attributes.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            page.receivers.clear(0.0, 0.0, 0.0, 0.0)
+            page.level_only.clear(0.0, 0.0, 0.0, 0.0)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
-        for start, end in zip(starts, ends):
-            page_index, texture = keys[start]
-            self._pages[page_index].attributes.use()
-            program = self._programs["attributes"]
-            _set(program, "u_use_texture", int(texture >= 0))
-            if texture >= 0:
-                self._albedo_textures[texture].use(location=0)
-            vaos["attributes"].render(moderngl.TRIANGLES, vertices=3 * (end - start), first=3 * start)
+        for index, raster in enumerate(rasters):
+            raster.use()
+            raster.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            for start, end in zip(starts, ends):
+                page_index, texture = keys[start]
+                if page_index != index:
+                    continue
+                program = self._programs["attributes"]
+                _set(program, "u_use_texture", int(texture >= 0))
+                if texture >= 0:
+                    self._albedo_textures[texture].use(location=0)
+                vaos["attributes"].render(moderngl.TRIANGLES, vertices=3 * (end - start),
+                                          first=3 * start)
         ctx.disable(moderngl.DEPTH_TEST)
+        # moderngl binds the last used framebuffer again after making one: not a released one.
+        self._pages[0].area_only.use()
+        gl.release_now(*rasters, depth)
+        # The irradiance takes the depth's memory: the peak stays at BYTES_PER_TEXEL.
+        for page in self._pages:
+            irradiance = page.textures["irradiance"] = gl.texture(
+                (atlas.width, atlas.height), 4)
+            page.receivers = gl.framebuffer([irradiance, page.textures["unshot"]])
+            cleared = gl.framebuffer([irradiance])
+            cleared.clear(0.0, 0.0, 0.0, 0.0)
+            page.area_only.use()
+            gl.release_now(cleared)
 
         ctx.enable(moderngl.BLEND)
         ctx.blend_equation = moderngl.FUNC_ADD
@@ -636,10 +657,6 @@ class Solver:
             page.area_only.color_mask = (True, True, True, True)
         ctx.disable(moderngl.BLEND)
 
-        for page in self._pages:
-            page.unshot_only.use()
-            page.textures["emission"].use(location=0)
-            self._fullscreen["init"].render(moderngl.TRIANGLES, vertices=3)
         if self.settings.subdivision == "REGULAR":
             self._raise_levels(np.nonzero(self._slot_receives)[0], self.settings.subdivision_level)
 
@@ -681,7 +698,7 @@ class Solver:
         ctx.blend_equation = moderngl.MAX
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         vao = self._level_vaos["level"]
-        for page_slots in self._per_page(slots, "level_only", (False, False, False, True)):
+        for page_slots in self._per_page(slots, "level_only", (True, True, True, True)):
             for first, count in _runs(page_slots):
                 vao.render(moderngl.TRIANGLES, vertices=3 * count, first=3 * first)
         ctx.blend_equation = moderngl.FUNC_ADD
@@ -753,7 +770,7 @@ class Solver:
 
     def _per_page(self, slots, framebuffer, color_mask):
         """Yield the part of ``slots`` on each page, with that page's ``framebuffer`` bound
-        under ``color_mask`` and its position, normal and albedo maps on units 1 to 3."""
+        under ``color_mask`` and its position, normal and material maps on units 1 to 3."""
         for page_index in np.unique(self._slot_pages[slots]):
             page = self._pages[page_index]
             target = getattr(page, framebuffer)
@@ -761,7 +778,7 @@ class Solver:
             target.use()
             page.textures["position"].use(location=1)
             page.textures["normal"].use(location=2)
-            page.textures["albedo"].use(location=3)
+            page.textures["material"].use(location=3)
             yield slots[self._slot_pages[slots] == page_index]
             target.color_mask = (True, True, True, True)
 
@@ -787,23 +804,22 @@ class Solver:
             subdivided = occupied = 0
             for page in self._pages:
                 receives = (self._read(page.textures["position"])[..., 3] > 0) & (
-                    self._read(page.textures["albedo"])[..., 3] > 0)
-                levels = self._read(page.textures["tangent"])[..., 3]
+                    self._read(page.textures["material"])[..., 3] > 0)
+                levels = self._read(page.textures["level"])
                 subdivided += int(np.count_nonzero(receives & (levels > 0)))
                 occupied += int(np.count_nonzero(receives))
             return subdivided / max(occupied, 1)
 
     def _measure_emission(self):
-        """Emitted power as the texels hold it (the unshot maps start as the emission, with
-        the back face of two-sided emitters pending), summed in double precision."""
+        """Emitted power as the texels hold it (the unshot maps start as the emission),
+        summed in double precision."""
         self._emitted_maps = np.zeros(3)
         self._texel_count = 0
         for page in self._pages:
             area = self._read(page.textures["position"])[..., 3:4]
-            emission = self._read(page.textures["emission"])
-            receives = self._read(page.textures["albedo"])[..., 3]
-            sides = 1.0 + emission[..., 3:4]
-            self._emitted_maps += math.pi * (emission[..., :3] * sides * area).reshape(-1, 3).sum(axis=0)
+            emission = self._read(page.textures["unshot"])[..., :3]
+            receives = self._read(page.textures["material"])[..., 3]
+            self._emitted_maps += math.pi * (emission * area).reshape(-1, 3).sum(axis=0)
             self._texel_count += int(np.count_nonzero((area[..., 0] > 0) & (receives > 0)))
 
     # ----------------------------------------------------------------- selection
@@ -839,7 +855,6 @@ class Solver:
             fbo.use()
             page.textures["position"].use(location=0)
             page.textures["unshot"].use(location=1)
-            page.textures["emission"].use(location=2)
             self._fullscreen["block"].render(moderngl.TRIANGLES, vertices=3)
             for (source, _), (_, target) in zip(page.pyramid, page.pyramid[1:]):
                 target.use()
@@ -883,23 +898,24 @@ class Solver:
         return [shooter for shooter in shooters if shooter is not None]
 
     def _read_blocks(self, regions):
-        """Per region: its position, normal, tangent, emission and unshot maps as (N, 4)
-        float64 rows, queued into one staging buffer and read back once."""
+        """Per region: its position (N, 4), normal (N, 3) and unshot (N, 4) maps as float64
+        rows, queued into one staging buffer and read back once."""
         offset, views = 0, []
         for page_index, x0, y0, size in regions:
             page = self._pages[page_index]
             width, height = min(size, self.atlas.width - x0), min(size, self.atlas.height - y0)
             count = width * height
-            for fbo, attachment in ((page.attributes, 0), (page.attributes, 1),
-                                    (page.attributes, 2), (page.attributes, 4),
-                                    (page.receivers, 1)):
-                fbo.read_into(self._staging, viewport=(x0, y0, width, height), components=4,
-                              attachment=attachment, dtype="f4", write_offset=offset)
-                views.append((offset // 4, count))
-                offset += count * 16
+            for attachment, components in BLOCK_MAPS:
+                page.blocks.read_into(self._staging, viewport=(x0, y0, width, height),
+                                      components=components, attachment=attachment, dtype="f4",
+                                      write_offset=offset)
+                views.append((offset // 4, count, components))
+                offset += count * components * 4
         data = np.frombuffer(self._staging.read(size=offset), dtype="f4").astype(np.float64)
-        rows = [data[start:start + 4 * count].reshape(count, 4) for start, count in views]
-        return [rows[i:i + 5] for i in range(0, len(rows), 5)]
+        rows = [data[start:start + components * count].reshape(count, components)
+                for start, count, components in views]
+        return [(position, _decode_normals(normal), unshot)
+                for position, normal, unshot in zip(rows[0::3], rows[1::3], rows[2::3])]
 
     def _block_region(self, page_index, block, power):
         """(page, x0, y0, size) of the texels a block shoots from."""
@@ -914,37 +930,34 @@ class Solver:
         page_index, x0, y0, size = region
         page = self._pages[page_index]
         width = min(size, self.atlas.width - x0)
-        position, normal, tangent, emission, unshot = maps
-
-        area = position[:, 3]
-        front = unshot[:, :3]
-        back = unshot[:, 3:4] * emission[:, :3]
-        power = (front + back).mean(axis=1) * area
+        position, normal, unshot = maps
+        area, radiance, texel_size = position[:, 3], unshot[:, :3], unshot[:, 3]
+        power = radiance.mean(axis=1) * area
         strongest = int(np.argmax(power))
         if power[strongest] <= 0.0:
             return None
-        n0, p0 = normal[strongest, :3], position[strongest, :3]
+        n0, p0 = normal[strongest], position[strongest, :3]
         density = power / np.maximum(area, 1e-30)
-        coplanar = ((power > 0.0) & (normal[:, :3] @ n0 > 0.95)
-                    & (np.abs((position[:, :3] - p0) @ n0) <= 0.25 * size * normal[strongest, 3]))
+        coplanar = ((power > 0.0) & (normal @ n0 > 0.95)
+                    & (np.abs((position[:, :3] - p0) @ n0) <= 0.25 * size * texel_size[strongest]))
         members = np.nonzero(coplanar & (density >= SIMILAR_RADIANCE * density[strongest]))[0]
-        members = self._same_side_as(region, strongest, members, position, normal[strongest, 3])
+        members = self._same_side_as(region, strongest, members, position, texel_size[strongest])
         weights = area[members, None]
         total_area = float(weights.sum())
         centre = (position[members, :3] * weights).sum(axis=0) / total_area
-        n = (normal[members, :3] * weights).sum(axis=0)
+        n = (normal[members] * weights).sum(axis=0)
         n /= np.linalg.norm(n)
-        t = tangent[strongest, :3] - n * (tangent[strongest, :3] @ n)
-        t /= np.linalg.norm(t)
+        texels = np.stack([members % width, members // width], axis=1)
+        t = _lightmap_tangent(texels, position[members, :3], n)
         b = np.cross(n, t)
+        taken = unshot[members].astype(np.float32)
+        taken[:, 3] = 0.0   # the texel size stays
         return _Shooter(
-            page=page, texels=np.stack([members % width + x0, members // width + y0], axis=1),
+            page=page, texels=texels + (x0, y0),
             centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area,
-            quad=_shooter_quad(position[members, :3] - centre, normal[members, 3], t, b,
+            quad=_shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
                                total_area, centre),
-            radiance_front=(front[members] * weights).sum(axis=0) / total_area,
-            radiance_back=(back[members] * weights).sum(axis=0) / total_area,
-            unshot=unshot[members].astype(np.float32))
+            radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken)
 
     def _same_side_as(self, region, strongest, members, position, texel_size):
         """The members on the strongest texel's side of every occluder whose plane runs
@@ -986,22 +999,17 @@ class Solver:
             self._timed("subdivision", self._subdivide_shadowed, clip_below)
 
     def _shoot_patch(self, shooter):
-        shot_power = math.pi * shooter.area * (shooter.radiance_front + shooter.radiance_back)
+        shot_power = math.pi * shooter.area * shooter.radiance
         self._shot_power = self._shot_power + shot_power
-        two_sided = shooter.radiance_back.sum() > 0.0
-        normal = shooter.frame[:, 2]
-        # A one-sided shooter looks from just above its surface and clips what lies behind
-        # it; a two-sided one looks both ways from the surface itself.
-        eye = shooter.centre if two_sided else shooter.centre + normal * self._epsilon
-        self._timed("visibility", self._render_visibility, eye, shooter.frame,
-                    6 if two_sided else 5, not two_sided, False)
-        self._maybe_subdivide(float(np.mean(shot_power)), not two_sided)
+        # The shooter looks from just above its surface and clips what lies behind it.
+        eye = shooter.centre + shooter.frame[:, 2] * self._epsilon
+        self._timed("visibility", self._render_visibility, eye, shooter.frame, 5, True, False)
+        self._maybe_subdivide(float(np.mean(shot_power)), True)
         self._take_unshot(shooter)
         program = self._programs["patch"]
         _set(program, "u_quad", [tuple(corner) for corner in shooter.quad])
         _set(program, "u_centre", tuple(shooter.centre))
-        _set(program, "u_radiance_front", tuple(shooter.radiance_front))
-        _set(program, "u_radiance_back", tuple(shooter.radiance_back))
+        _set(program, "u_radiance", tuple(shooter.radiance))
         self._timed("receivers", self._update_receivers, "patch")
 
     def _shoot_light(self, light):
@@ -1103,8 +1111,8 @@ class Solver:
             page.receivers.use()
             page.textures["position"].use(location=1)
             page.textures["normal"].use(location=2)
-            page.textures["albedo"].use(location=3)
-            page.textures["tangent"].use(location=4)
+            page.textures["material"].use(location=3)
+            page.textures["level"].use(location=4)
             self._fullscreen[kind].render(moderngl.TRIANGLES, vertices=3)
         ctx.disable(moderngl.BLEND)
 
@@ -1122,7 +1130,7 @@ class Solver:
             (first, first_fbo), (second, second_fbo) = self._output
             first_fbo.use()
             page.textures["position"].use(location=0)
-            page.textures["albedo"].use(location=1)
+            page.textures["material"].use(location=1)
             page.textures["irradiance"].use(location=2)
             self._fullscreen["resolve"].render(moderngl.TRIANGLES, vertices=3)
             source, target = (first, first_fbo), (second, second_fbo)
@@ -1138,8 +1146,14 @@ class Solver:
 
     # ----------------------------------------------------------------- helpers
     def _read(self, texture):
-        data = np.frombuffer(texture.read(), dtype=texture.dtype)
-        return data.reshape(texture.height, texture.width, 4).astype(np.float32)
+        """A map as float32 (height, width, components), or (height, width) for one
+        component; normalized integer maps scaled to [0, 1] as the shaders read them."""
+        dtype = texture.dtype.lstrip("n")
+        data = np.frombuffer(texture.read(), dtype=dtype).astype(np.float32)
+        if texture.dtype.startswith("n"):
+            data /= np.iinfo(dtype).max
+        shape = (texture.height, texture.width, texture.components)
+        return data.reshape(shape).squeeze(axis=2) if texture.components == 1 else data.reshape(shape)
 
     def _finish(self):
         if self.settings.profile:
@@ -1212,6 +1226,38 @@ def sky_suns(radiance, count):
     strength = float(radiance.max()) * 4.0 * math.pi / count
     color = tuple(radiance / radiance.max())
     return [SunLight(tuple(d), strength, color, name="World") for d in directions]
+
+
+def _decode_normals(stored):
+    """Unit normals from the octahedral normal map's values in [0, 1] (texel_maps.glsl)."""
+    p = (np.floor(stored[..., :2].astype(np.float64) * 65535.0 + 0.5) - OCT_STEPS) / OCT_STEPS
+    z = 1.0 - np.abs(p).sum(axis=-1)
+    folded = (1.0 - np.abs(p[..., ::-1])) * np.where(p >= 0.0, 1.0, -1.0)
+    xy = np.where((z < 0.0)[..., None], folded, p)
+    n = np.concatenate([xy, z[..., None]], axis=-1)
+    return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
+
+
+def _tangent_of(n):
+    """The shaders' tangent_of() (texel_maps.glsl): along the world axis least along n."""
+    axis = np.eye(3)[int(np.argmin(np.abs(n)))]
+    t = axis - n * (axis @ n)
+    return t / np.linalg.norm(t)
+
+
+def _lightmap_tangent(texels, positions, n):
+    """The world direction of +x in the lightmap over a shooter's texels (so that its quad
+    lines up with them), by least squares of their positions on their texel coordinates;
+    along +y turned a quarter when they span one column, tangent_of(n) for one texel."""
+    spans = [len(np.unique(texels[:, axis])) > 1 for axis in (0, 1)]
+    if not any(spans):
+        return _tangent_of(n)
+    design = np.column_stack([np.ones(len(texels)), texels[:, [i for i in (0, 1) if spans[i]]]])
+    slopes = np.linalg.lstsq(design, positions, rcond=None)[0][1:]
+    direction = slopes[0] if spans[0] else np.cross(slopes[0], n)
+    direction = direction - n * (direction @ n)
+    length = np.linalg.norm(direction)
+    return direction / length if length > 1e-12 else _tangent_of(n)
 
 
 def _shooter_quad(offsets, texel_sizes, t, b, area, centre):

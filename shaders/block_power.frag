@@ -4,7 +4,6 @@
 // pyramid, whose .w carries the sum.
 uniform sampler2D u_position;
 uniform sampler2D u_unshot;
-uniform sampler2D u_emission;
 uniform int u_block;
 layout(location = 0) out vec4 out_power;
 
@@ -19,8 +18,7 @@ void main() {
             if (t.x >= size.x || t.y >= size.y) continue;
             float area = texelFetch(u_position, t, 0).w;
             if (area <= 0.0) continue;
-            vec4 unshot = texelFetch(u_unshot, t, 0);
-            vec3 radiance = unshot.rgb + unshot.a * texelFetch(u_emission, t, 0).rgb;
+            vec3 radiance = texelFetch(u_unshot, t, 0).rgb;
             power += (radiance.r + radiance.g + radiance.b) * area;
         }
     }

@@ -14,7 +14,7 @@ in VertexData {
     vec3 normal;
     vec2 tex_uv;
     vec3 albedo;
-    vec4 emission;
+    vec3 emission;
     float receive;
 } v[];
 
@@ -23,10 +23,9 @@ flat out vec3 g_position[3];
 flat out vec3 g_normal[3];
 flat out vec2 g_tex_uv[3];
 flat out vec3 g_albedo;
-flat out vec4 g_emission;
+flat out vec3 g_emission;
 flat out float g_receive;
 flat out vec3 g_face_normal;
-flat out vec3 g_tangent;          // world direction of +u in the lightmap
 flat out float g_texel_size;      // world length of one texel edge
 flat out float g_area_per_texel;  // world area of one texel square on this triangle
 
@@ -41,12 +40,6 @@ void main() {
     float world_area2 = length(n);
     if (abs(uv_area2) < 1e-10 || world_area2 <= 0.0) return;
 
-    // Jacobian of the affine map texel -> world: [e1 e2] = J [d1 d2].
-    vec2 d1 = t1 - t0, d2 = t2 - t0;
-    float inv = 1.0 / uv_area2;
-    vec3 ju = (e1 * d2.y - e2 * d1.y) * inv;
-    vec3 jv = (e2 * d1.x - e1 * d2.x) * inv;
-
     for (int i = 0; i < 3; ++i) {
         g_texel[i] = v[i].texel;
         g_position[i] = v[i].position;
@@ -54,7 +47,6 @@ void main() {
         g_tex_uv[i] = v[i].tex_uv;
     }
     g_face_normal = n / world_area2;
-    g_tangent = normalize(ju);
     g_area_per_texel = world_area2 / abs(uv_area2);
     g_texel_size = sqrt(g_area_per_texel);
 

@@ -5,8 +5,8 @@ in vec3 in_position;   // world position
 in vec3 in_normal;     // shading normal
 in vec2 in_tex_uv;     // albedo texture coordinates
 in vec3 in_albedo;
-in vec4 in_emission;   // rgb radiance, a = 1 when the triangle emits from both faces
-in float in_receive;   // 1 when the triangle receives a lightmap
+in vec3 in_emission;   // radiance from the front face
+in float in_receive;   // its surface's number when the triangle receives, else 0
 
 out VertexData {
     vec2 texel;
@@ -14,7 +14,7 @@ out VertexData {
     vec3 normal;
     vec2 tex_uv;
     vec3 albedo;
-    vec4 emission;
+    vec3 emission;
     float receive;
 } v;
 

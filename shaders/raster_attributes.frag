@@ -8,10 +8,9 @@ flat in vec3 g_position[3];
 flat in vec3 g_normal[3];
 flat in vec2 g_tex_uv[3];
 flat in vec3 g_albedo;
-flat in vec4 g_emission;
+flat in vec3 g_emission;
 flat in float g_receive;
 flat in vec3 g_face_normal;
-flat in vec3 g_tangent;
 flat in float g_texel_size;
 flat in float g_area_per_texel;
 
@@ -19,11 +18,12 @@ uniform sampler2D u_albedo_texture;
 uniform int u_use_texture;
 
 layout(location = 0) out vec4 out_position;  // xyz, w = texel area (added by the area pass)
-layout(location = 1) out vec4 out_normal;    // xyz, w = world size of a texel edge
-layout(location = 2) out vec4 out_tangent;   // xyz
-layout(location = 3) out vec4 out_albedo;    // rgb, a = receives
-layout(location = 4) out vec4 out_emission;  // rgb radiance, a = emits from both faces
+layout(location = 1) out vec4 out_normal;    // octahedral normal (texel_maps.glsl)
+layout(location = 2) out vec4 out_material;  // albedo, a = the receiving surface's number
+layout(location = 3) out vec4 out_unshot;    // emitted radiance (the first unshot), a = world
+                                             // length of a texel edge
 
+#include "texel_maps.glsl"
 #include "texel_clip.glsl"
 
 void main() {
@@ -56,8 +56,7 @@ void main() {
     }
 
     out_position = vec4(position, 0.0);
-    out_normal = vec4(normal, g_texel_size);
-    out_tangent = vec4(normalize(g_tangent - normal * dot(g_tangent, normal)), 0.0);
-    out_albedo = vec4(albedo, g_receive);
-    out_emission = g_emission;
+    out_normal = vec4(encode_normal(normal), 0.0, 0.0);
+    out_material = vec4(albedo, encode_surface(g_receive));
+    out_unshot = vec4(g_emission, g_texel_size);
 }

@@ -8,8 +8,8 @@
 
 uniform vec3 u_quad[4];        // shooter quad corners, world space
 uniform vec3 u_centre;         // shooter centre
-uniform vec3 u_radiance_front; // unshot radiance leaving the front face
-uniform vec3 u_radiance_back;  // unshot radiance leaving the back face
+uniform vec3 u_radiance;       // unshot radiance leaving the front face (shooters are
+                               // one-sided: a two-sided emitter shoots from a mirrored copy)
 
 float polygon_form_factor(vec3 p, vec3 n) {
     vec3 poly[5];
@@ -43,13 +43,10 @@ bool in_near_field(vec3 point, float texel_size) {
 vec3 irradiance_at(vec3 point, vec3 normal) {
     vec3 from_shooter = point - u_centre;
     float height = dot(from_shooter, u_frame[2]);
-    // The shooter's own plane gets nothing: Lambert's formula jumps to 1 at a point inside a
-    // coplanar polygon, and rounding puts such points on either side.
-    if (abs(height) <= u_epsilon) return vec3(0.0);
-    bool front = height > 0.0;
-    vec3 radiance = front ? u_radiance_front : u_radiance_back;
-    if (dot(radiance, vec3(1.0)) <= 0.0 || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
+    // Only what lies in front. The shooter's own plane gets nothing: Lambert's formula jumps
+    // to 1 at a point inside a coplanar polygon, and rounding puts such points on either side.
+    if (height <= u_epsilon || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
     float visible = visible_from_eye(point, normal, receiver_surface);
     if (visible <= 0.0) return vec3(0.0);
-    return PI * radiance * polygon_form_factor(point, normal) * visible;
+    return PI * u_radiance * polygon_form_factor(point, normal) * visible;
 }

@@ -2,7 +2,7 @@
 // irradiance a point gets from the current shooter (0 where hidden or facing away).
 uniform sampler2D u_position;
 uniform sampler2D u_normal;
-uniform sampler2D u_tangent;   // xyz tangent, w subdivision level of the texel
+uniform sampler2D u_level;     // subdivision level of the texel
 
 layout(location = 0) out vec4 out_irradiance;  // added to the accumulated irradiance
 layout(location = 1) out vec4 out_unshot;      // added to the unshot radiance
@@ -18,28 +18,29 @@ bool in_near_field(vec3 point, float texel_size);
 void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     vec4 position = texelFetch(u_position, texel, 0);
-    vec4 albedo = texelFetch(u_albedo, texel, 0);
-    if (position.w <= 0.0 || albedo.a <= 0.0) discard;
-    receiver_surface = albedo.a;
-    vec4 normal = texelFetch(u_normal, texel, 0);
-    vec4 tangent = texelFetch(u_tangent, texel, 0);
-    int split = 1 << int(tangent.w + 0.5);
+    vec4 material = texelFetch(u_material, texel, 0);
+    if (position.w <= 0.0 || material.a <= 0.0) discard;
+    receiver_surface = decode_surface(material.a);
+    vec3 normal = decode_normal(texelFetch(u_normal, texel, 0).xy);
+    // A texel's side on the surface: its area's root (less than a texel edge at chart borders).
+    float side = sqrt(position.w);
+    int split = 1 << decode_level(texelFetch(u_level, texel, 0).r);
     vec3 irradiance = vec3(0.0);
-    if (split == 1 || in_near_field(position.xyz, normal.w)) {
-        irradiance = irradiance_at(position.xyz, normal.xyz);
+    if (split == 1 || in_near_field(position.xyz, side)) {
+        irradiance = irradiance_at(position.xyz, normal);
     } else {
-        // A subdivided texel gathers at split x split points spread over the part of the
-        // texel square its surface covers (the whole square inside a chart). Not next to the
-        // shooter: a texel there re-shoots from its sample point, so light gathered over the
-        // rest of its square (say in a gap behind an emitter) would leak out from there.
-        float coverage = clamp(position.w / (normal.w * normal.w), 0.0, 1.0);
-        float side = normal.w * sqrt(coverage);
-        vec3 bitangent = cross(normal.xyz, tangent.xyz);
+        // A subdivided texel gathers at split x split points spread over a square of its
+        // area around its sample point (the part of the texel square its surface covers).
+        // Not next to the shooter: a texel there re-shoots from its sample point, so light
+        // gathered over the rest of its square (say in a gap behind an emitter) would leak
+        // out from there.
+        vec3 tangent = tangent_of(normal);
+        vec3 bitangent = cross(normal, tangent);
         for (int j = 0; j < split; ++j) {
             for (int i = 0; i < split; ++i) {
                 vec2 offset = (vec2(i, j) + 0.5) / float(split) - 0.5;
-                vec3 point = position.xyz + side * (offset.x * tangent.xyz + offset.y * bitangent);
-                irradiance += irradiance_at(point, normal.xyz);
+                vec3 point = position.xyz + side * (offset.x * tangent + offset.y * bitangent);
+                irradiance += irradiance_at(point, normal);
             }
         }
         irradiance /= float(split * split);
@@ -47,5 +48,5 @@ void main() {
     if (irradiance.r + irradiance.g + irradiance.b <= 0.0) discard;
     // The irradiance gained by this texel and the reflected radiance it must shoot later.
     out_irradiance = vec4(irradiance, 0.0);
-    out_unshot = vec4(albedo.rgb * irradiance / PI, 0.0);
+    out_unshot = vec4(material.rgb * irradiance / PI, 0.0);
 }

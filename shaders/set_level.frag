@@ -1,5 +1,5 @@
 #version 410
-// Raises the subdivision level of a triangle's texels (MAX blending into the tangent map's w):
+// Raises the subdivision level of a triangle's texels (MAX blending into the level map):
 // all of them (regular refinement) or, for adaptive subdivision, those on the current shot's
 // shadow boundary: partly visible, or visible unlike a lightmap neighbour on the same surface.
 flat in vec2 g_texel[3];
@@ -15,7 +15,8 @@ layout(location = 0) out vec4 out_level;
 
 float visibility_of(ivec2 texel) {
     return visible_from_eye(texelFetch(u_position, texel, 0).xyz,
-                            texelFetch(u_normal, texel, 0).xyz, texelFetch(u_albedo, texel, 0).a);
+                            decode_normal(texelFetch(u_normal, texel, 0).xy),
+                            decode_surface(texelFetch(u_material, texel, 0).a));
 }
 
 void main() {
@@ -24,7 +25,7 @@ void main() {
     if (u_boundary_only != 0) {
         ivec2 texel = ivec2(gl_FragCoord.xy);
         ivec2 size = textureSize(u_position, 0);
-        vec3 normal = texelFetch(u_normal, texel, 0).xyz;
+        vec3 normal = decode_normal(texelFetch(u_normal, texel, 0).xy);
         float own = visibility_of(texel);
         bool boundary = own > 0.0 && own < 1.0;
         const ivec2 NEIGHBOURS[4] = ivec2[4](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
@@ -32,10 +33,10 @@ void main() {
             ivec2 n = texel + NEIGHBOURS[i];
             if (any(lessThan(n, ivec2(0))) || any(greaterThanEqual(n, size))) continue;
             if (texelFetch(u_position, n, 0).w <= 0.0) continue;
-            if (dot(texelFetch(u_normal, n, 0).xyz, normal) < 0.9) continue;
+            if (dot(decode_normal(texelFetch(u_normal, n, 0).xy), normal) < 0.9) continue;
             boundary = abs(visibility_of(n) - own) >= 0.5;
         }
         if (!boundary) discard;
     }
-    out_level = vec4(0.0, 0.0, 0.0, u_level);
+    out_level = vec4(encode_level(u_level));
 }

@@ -20,11 +20,12 @@ void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     vec4 position = texelFetch(u_position, texel, 0);
     if (position.w <= 0.0) discard;
-    vec3 normal = texelFetch(u_normal, texel, 0).xyz;
+    vec3 normal = decode_normal(texelFetch(u_normal, texel, 0).xy);
     vec3 to_eye = u_orthographic != 0 ? -u_frame[2] : u_eye - position.xyz;
     if (dot(normal, to_eye) <= 0.0) discard;
     if (u_clip_below != 0 && dot(position.xyz - u_eye, u_frame[2]) <= 0.0) discard;
-    bool hidden = visible_from_eye(position.xyz, normal, texelFetch(u_albedo, texel, 0).a) < 0.5;
+    bool hidden = visible_from_eye(position.xyz, normal,
+                                   decode_surface(texelFetch(u_material, texel, 0).a)) < 0.5;
     if (hidden != (u_count_hidden != 0)) discard;
     out_unused = vec4(0.0);
 }

@@ -1,6 +1,8 @@
 // Back-projection of a receiver into the visibility map and depth comparison.
+#include "texel_maps.glsl"
+
 uniform sampler2DArray u_visibility;
-uniform sampler2D u_albedo;          // a receiving texel's alpha: its surface's number
+uniform sampler2D u_material;        // a receiving texel's alpha: its surface's number
 uniform float u_resolution;
 uniform float u_epsilon;             // absolute depth tolerance, scaled to the scene
 uniform int u_neighbour_visibility;  // the paper's fix (Sec. 5.2): the 3x3 texels around vote

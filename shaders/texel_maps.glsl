@@ -1,0 +1,38 @@
+// The compact per-texel maps (Solver._allocate_page in native/solver.py): the normal
+// octahedral in two 16-bit normalized channels, with 0 and +-1 exact so that axis-aligned
+// surfaces keep exact normals; a receiving surface's number and the subdivision level as
+// integers in normalized channels. Stored integers carry +0.25 so that a driver that
+// truncates instead of rounding stores the same integer.
+const float OCT_STEPS = 32767.0;
+
+vec2 sign_not_zero(vec2 v) {
+    return vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0);
+}
+
+vec2 encode_normal(vec3 n) {
+    vec2 p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
+    if (n.z < 0.0) p = (1.0 - abs(p.yx)) * sign_not_zero(p);
+    return (p * OCT_STEPS + OCT_STEPS + 0.25) / 65535.0;
+}
+
+vec3 decode_normal(vec2 stored) {
+    vec2 p = (floor(stored * 65535.0 + 0.5) - OCT_STEPS) / OCT_STEPS;
+    vec3 n = vec3(p, 1.0 - abs(p.x) - abs(p.y));
+    if (n.z < 0.0) n.xy = (1.0 - abs(n.yx)) * sign_not_zero(n.xy);
+    return normalize(n);
+}
+
+float encode_surface(float surface) { return (surface + 0.25) / 65535.0; }
+float decode_surface(float stored) { return floor(stored * 65535.0 + 0.5); }
+
+float encode_level(float level) { return (level + 0.25) / 255.0; }
+int decode_level(float stored) { return int(stored * 255.0 + 0.5); }
+
+// A unit tangent of the normal n, the same for every texel of a plane: along a world axis
+// for an axis-aligned surface.
+vec3 tangent_of(vec3 n) {
+    vec3 a = abs(n);
+    vec3 axis = (a.x <= a.y && a.x <= a.z) ? vec3(1.0, 0.0, 0.0)
+              : (a.y <= a.z ? vec3(0.0, 1.0, 0.0) : vec3(0.0, 0.0, 1.0));
+    return normalize(axis - n * dot(axis, n));
+}
