@@ -183,7 +183,6 @@ class Solver:
         self._unshot_fraction = 1.0
         self._shot_power = np.zeros(3)
         self._owns_context = ctx is None
-        self._output = None
         self.ctx = None
         self._gl = None
         self._started = time.perf_counter()
@@ -374,15 +373,12 @@ class Solver:
             "patch": gl.program("fullscreen.vert", "receive_patch.frag"),
             "light": gl.program("fullscreen.vert", "receive_light.frag"),
             "take": gl.program("take_unshot.vert", "take_unshot.frag"),
-            "resolve": gl.program("fullscreen.vert", "resolve.frag"),
-            "dilate": gl.program("fullscreen.vert", "dilate.frag"),
         }
         if settings.subdivision != "NONE":
             self._programs["count"] = gl.program("raster.vert", "shadow_count.frag", "raster.geom")
             self._programs["level"] = gl.program("raster.vert", "set_level.frag", "raster.geom")
         self._fullscreen = {name: gl.vertex_array(self._programs[name], [])
-                            for name in ("block", "argmax", "patch", "light",
-                                         "resolve", "dilate")}
+                            for name in ("block", "argmax", "patch", "light")}
         self._set_constant_uniforms()
         self._albedo_textures = []
         for image in scene.albedo_textures:
@@ -480,10 +476,8 @@ class Solver:
             "patch": receivers,
             "light": receivers,
             "take": {"u_atlas_size": size},
-            "resolve": {"u_position": 0, "u_material": 1, "u_irradiance": 2},
             "count": {**receivers, "u_atlas_size": size},
             "level": {**receivers, "u_atlas_size": size},
-            "dilate": {"u_source": 0},
         }
         for name, uniforms in constants.items():
             if name not in self._programs:
@@ -1118,29 +1112,19 @@ class Solver:
 
     # ----------------------------------------------------------------- postprocess
     def _postprocess(self):
-        gl = self._gl
-        size = (self.atlas.width, self.atlas.height)
-        if self._output is None:  # made on the first result(), reused afterwards
-            textures = [gl.texture(size, 4), gl.texture(size, 4)]
-            self._output = [(t, gl.framebuffer([t])) for t in textures]
+        """Per page: rho * (E / pi + ambient) on receiving texels, alpha 1, and the gutter
+        filled, on the CPU from the maps it reads anyway (no output maps on the GPU)."""
         ambient = self.ambient_radiance() if self.settings.ambient else np.zeros(3)
-        _set(self._programs["resolve"], "u_ambient", tuple(ambient))
         pages = []
         for page in self._pages:
-            (first, first_fbo), (second, second_fbo) = self._output
-            first_fbo.use()
-            page.textures["position"].use(location=0)
-            page.textures["material"].use(location=1)
-            page.textures["irradiance"].use(location=2)
-            self._fullscreen["resolve"].render(moderngl.TRIANGLES, vertices=3)
-            source, target = (first, first_fbo), (second, second_fbo)
-            for _ in range(self.settings.padding + 1):
-                target[1].use()
-                source[0].use(location=0)
-                self._fullscreen["dilate"].render(moderngl.TRIANGLES, vertices=3)
-                source, target = target, source
-            image = self._read(source[0])
-            image[..., 3] = (image[..., 3] == 1.0).astype(np.float32)
+            material = self._read(page.textures["material"])
+            occupied = (self._read(page.textures["position"])[..., 3] > 0) & (material[..., 3] > 0)
+            irradiance = self._read(page.textures["irradiance"])[..., :3]
+            image = np.zeros(occupied.shape + (4,), np.float32)
+            image[..., :3] = material[..., :3] * (irradiance / math.pi + ambient.astype(np.float32))
+            image[~occupied, :3] = 0.0
+            image[..., 3] = occupied
+            _fill_gutter(image, self.settings.padding + 1)
             pages.append(image)
         return pages
 
@@ -1226,6 +1210,32 @@ def sky_suns(radiance, count):
     strength = float(radiance.max()) * 4.0 * math.pi / count
     color = tuple(radiance / radiance.max())
     return [SunLight(tuple(d), strength, color, name="World") for d in directions]
+
+
+def _fill_gutter(image, passes):
+    """Gutter fill, ``passes`` rings deep: an empty texel next to filled ones takes their
+    mean, so bilinear sampling across chart borders shows no seams; alpha stays 0 there."""
+    height, width = image.shape[:2]
+    filled = image[..., 3] > 0
+    offsets = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
+    for _ in range(passes):
+        padded = np.pad(filled, 1)
+        touched = np.zeros_like(filled)
+        for dy, dx in offsets:
+            touched |= padded[1 + dy:1 + dy + height, 1 + dx:1 + dx + width]
+        ys, xs = np.nonzero(touched & ~filled)
+        if not len(ys):
+            return
+        total, count = np.zeros((len(ys), 3)), np.zeros(len(ys))
+        for dy, dx in offsets:
+            ny, nx = ys + dy, xs + dx
+            inside = (ny >= 0) & (ny < height) & (nx >= 0) & (nx < width)
+            ny, nx = np.clip(ny, 0, height - 1), np.clip(nx, 0, width - 1)
+            use = inside & filled[ny, nx]
+            total += image[ny, nx, :3] * use[:, None]
+            count += use
+        image[ys, xs, :3] = total / count[:, None]
+        filled[ys, xs] = True
 
 
 def _decode_normals(stored):

@@ -84,6 +84,41 @@ def test_every_gl_object_is_released(ctx, gl_clean):
     solver.release()  # idempotent
 
 
+@pytest.mark.parametrize("subdivision", ["NONE", "ADAPTIVE"])
+def test_maps_take_under_64_bytes_per_texel_at_their_peak(ctx, gl_clean, monkeypatch,
+                                                          subdivision):
+    """The issue's memory target, counted from the textures the solver holds (size x
+    components x bytes of their format), at their peak over setup, shots and result()."""
+    from native import gpu
+    component_bytes = {"f4": 4, "f2": 2, "nu2": 2, "nu1": 1}
+    live, peak = {}, [0]
+
+    def keep(self, obj, original=gpu.GLObjects.keep):
+        if type(obj) is moderngl.Texture:   # not the visibility map, a TextureArray
+            live[id(obj)] = obj.width * obj.height * obj.components * component_bytes[obj.dtype]
+            peak[0] = max(peak[0], sum(live.values()))
+        return original(self, obj)
+
+    def release_now(self, *objects, original=gpu.GLObjects.release_now):
+        for obj in objects:
+            live.pop(id(obj), None)
+        original(self, *objects)
+
+    monkeypatch.setattr(gpu.GLObjects, "keep", keep)
+    monkeypatch.setattr(gpu.GLObjects, "release_now", release_now)
+    solver = Solver(lit_cornell_box(), Settings(texel_density=40, max_shots=40,
+                                                subdivision=subdivision), ctx=ctx)
+    try:
+        solver.run()
+        solver.result()
+        atlas = solver.atlas
+        texels = atlas.width * atlas.height * atlas.page_count
+        assert texels > 4000
+        assert 50 < peak[0] / texels < 64
+    finally:
+        solver.release()
+
+
 def test_setup_failing_halfway_releases_what_it_made(ctx, gl_clean, monkeypatch):
     made = []
     original = Solver._measure_emission
