@@ -33,6 +33,9 @@ def main():
     parser.add_argument("--samples", type=int, default=2048, help="per reference bake")
     parser.add_argument("--exclude", nargs="*", default=[],
                         help="objects left out of the second set of numbers")
+    parser.add_argument("--variant", action="append", default=[], metavar="NAME=VALUE,...",
+                        help="also bake Luxel with these Luxel scene settings changed (say "
+                        "ambient=1), against the same reference and Cycles curve; repeatable")
     parser.add_argument("--json", type=Path)
     parser.add_argument("--save-reference", type=Path, metavar="NPZ",
                         help="also save the averaged reference, per object, for "
@@ -51,6 +54,7 @@ def main():
     settings.max_shots = 1_000_000
 
     bake = compare.bake_with_snapshots(context)
+    variants = {spec: _bake_variant(context, compare, spec) for spec in args.variant}
     targets = reference_module.receivers(context.scene)
     started = time.perf_counter()
     first = reference_module.cycles_reference(context, samples=args.samples, seed=11)
@@ -70,25 +74,53 @@ def main():
         names = [obj.name for obj in targets if obj.name in first and obj.name not in excluded]
         reference = {n: _average(first[n], second[n]) for n in names}
         noise, magnitude = _noise_and_magnitude(names, first, second)
-        luxel_curve = _debiased(bake.curve(targets, names, reference), noise, magnitude)
         cycles_curve = _debiased(compare.cycles_curve(context, options, names, reference),
                                  noise, magnitude)
-        rows = []
-        for target in TARGETS:
-            luxel_time = _time_to(luxel_curve, target)
-            cycles_time = _time_to(cycles_curve, target)
-            ratio = (cycles_time / luxel_time if luxel_time and cycles_time else None)
-            rows.append({"target": target, "luxel_seconds": luxel_time,
-                         "cycles_seconds": cycles_time, "cycles_over_luxel": ratio})
-            print(f"{args.scene} [{label}] {100 * target:.0f} %: Luxel {_s(luxel_time)}, "
-                  f"Cycles {_s(cycles_time)}, ratio {_s(ratio, '')}", flush=True)
-        result["sets"][label] = {"objects": names, "reference_noise_rel": noise ** 0.5 / magnitude,
-                                 "luxel": luxel_curve, "cycles": cycles_curve,
-                                 "equal_error": rows}
+        entry = {"objects": names, "reference_noise_rel": noise ** 0.5 / magnitude,
+                 "cycles": cycles_curve, "variants": {}}
+        for spec, run in [("", bake)] + list(variants.items()):
+            luxel_curve = _debiased(run.curve(targets, names, reference), noise, magnitude)
+            rows = _equal_error_rows(luxel_curve, cycles_curve,
+                                     f"{args.scene} [{label}]{' ' + spec if spec else ''}")
+            if spec:
+                entry["variants"][spec] = {"luxel": luxel_curve, "equal_error": rows}
+            else:
+                entry.update(luxel=luxel_curve, equal_error=rows)
+        result["sets"][label] = entry
     if args.json:
         args.json.write_text(json.dumps(result, indent=2, allow_nan=False, default=_plain))
     if args.save_reference:
         _save_reference(args.save_reference, targets, first, second, result)
+
+
+def _bake_variant(context, compare, spec):
+    """A Luxel bake with snapshots under the settings ``spec`` names, which are restored."""
+    settings = context.scene.luxel
+    changed = {}
+    for item in spec.split(","):
+        name, value = item.split("=", 1)
+        current = getattr(settings, name)
+        changed[name] = current
+        setattr(settings, name, type(current)(float(value)) if not isinstance(current, str)
+                else value)
+    try:
+        return compare.bake_with_snapshots(context)
+    finally:
+        for name, value in changed.items():
+            setattr(settings, name, value)
+
+
+def _equal_error_rows(luxel_curve, cycles_curve, label):
+    rows = []
+    for target in TARGETS:
+        luxel_time = _time_to(luxel_curve, target)
+        cycles_time = _time_to(cycles_curve, target)
+        ratio = (cycles_time / luxel_time if luxel_time and cycles_time else None)
+        rows.append({"target": target, "luxel_seconds": luxel_time,
+                     "cycles_seconds": cycles_time, "cycles_over_luxel": ratio})
+        print(f"{label} {100 * target:.0f} %: Luxel {_s(luxel_time)}, "
+              f"Cycles {_s(cycles_time)}, ratio {_s(ratio, '')}", flush=True)
+    return rows
 
 
 def _save_reference(path, targets, first, second, result):
