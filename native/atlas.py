@@ -4,6 +4,7 @@ from collections import OrderedDict
 from dataclasses import dataclass, replace
 import hashlib
 import math
+import time
 
 import numpy as np
 import xatlas
@@ -33,6 +34,13 @@ CACHED_ATLASES = 4
 MIN_XATLAS_AREA = 1e-3   # smallest triangle area handed to xatlas, in its units
 MAX_XATLAS_EXTENT = 1e6  # largest scene size handed to xatlas, in its units
 _cache = OrderedDict()
+# xatlas can deadlock when an atlas is destroyed right after generate(): its destructor wakes
+# the worker threads without taking their lock, so a worker still on its way back to sleep
+# misses the wake-up and the destructor joins it forever (seen here as a test run hanging
+# with every thread waiting, about once in a few hundred atlases). So atlases are destroyed
+# only at the next build, and no sooner than this after their generate() returned.
+XATLAS_SETTLE_SECONDS = 0.1
+_generated = []   # (xatlas.Atlas, when its generate() returned)
 
 
 def build_atlas(scene, density, max_size=4096, padding=2, charted=None):
@@ -73,6 +81,7 @@ def clear_cache():
 
 
 def _build(scene, chosen, density, max_size, padding):
+    _destroy_settled_atlases()
     mesh_triangles = [chosen[scene.object_index[chosen] == obj]
                       for obj in np.unique(scene.object_index[chosen])]
     units = _units_per_metre(scene, chosen, density)
@@ -84,11 +93,11 @@ def _build(scene, chosen, density, max_size, padding):
     pack_options.padding = int(padding)
     pack_options.bilinear = True
     pack_options.max_chart_size = int(max_size - 2 * padding - 2)
-    atlas.generate(chart_options, pack_options)
+    _generate(atlas, chart_options, pack_options)
     if atlas.width > max_size or atlas.height > max_size:
         atlas = _atlas_of(scene, mesh_triangles, units)
         pack_options.resolution = int(max_size)
-        atlas.generate(chart_options, pack_options)
+        _generate(atlas, chart_options, pack_options)
 
     width, height = int(atlas.width), int(atlas.height)
     texels = np.zeros((len(chosen), 3, 2))
@@ -109,6 +118,18 @@ def _build(scene, chosen, density, max_size, padding):
     return Atlas(width, height, page_count, order[packed], page[packed],
                  np.clip(texels[packed], 0.0, [width, height]), float(density),
                  unpacked=order[~packed])
+
+
+def _generate(atlas, chart_options, pack_options):
+    atlas.generate(chart_options, pack_options)
+    _generated.append((atlas, time.monotonic()))
+
+
+def _destroy_settled_atlases():
+    """Destroy the atlases of earlier builds once their workers have long been asleep."""
+    if _generated:
+        time.sleep(max(0.0, _generated[-1][1] + XATLAS_SETTLE_SECONDS - time.monotonic()))
+        _generated.clear()
 
 
 def _cache_key(scene, chosen, density, max_size, padding):

@@ -1118,11 +1118,13 @@ class Solver:
         pages = []
         for page in self._pages:
             material = self._read(page.textures["material"])
-            occupied = (self._read(page.textures["position"])[..., 3] > 0) & (material[..., 3] > 0)
-            irradiance = self._read(page.textures["irradiance"])[..., :3]
-            image = np.zeros(occupied.shape + (4,), np.float32)
-            image[..., :3] = material[..., :3] * (irradiance / math.pi + ambient.astype(np.float32))
-            image[~occupied, :3] = 0.0
+            occupied = material[..., 3] > 0   # a receiving texel (rasterized: area > 0)
+            # Whole RGBA rows are contiguous (fast); the irradiance's alpha is 0 throughout.
+            image = self._read(page.textures["irradiance"])
+            image *= np.float32(1.0 / math.pi)
+            image += np.append(ambient, 0.0).astype(np.float32)
+            image *= material
+            image *= occupied[..., None]
             image[..., 3] = occupied
             _fill_gutter(image, self.settings.padding + 1)
             pages.append(image)
