@@ -1,6 +1,6 @@
 """Plots for BENCHMARKS.md from bench/results/*.json, and the paper's Table 2 in Markdown.
 
-    python bench/plot.py        # every plot: bench/results/*.png
+    python bench/plot.py        # every plot: bench/results/*.png (equal error: one per run)
     python bench/plot.py --table2 bench/results/projections-llvmpipe.json   # prints Markdown
     python bench/plot.py --table1 bench/results/table1-h100.json           # prints Markdown
 """
@@ -67,6 +67,39 @@ def convergence():
     figure.suptitle("Cornell box: unshot energy against shots and time", fontsize=10)
     figure.tight_layout()
     figure.savefig(RESULTS / "convergence.png", dpi=110)
+
+
+def equal_error():
+    """Speed against error of each bench_equal_error.py run with --variant: debiased relative
+    RMS against seconds, Cycles and every Luxel variant, one panel per set of objects."""
+    for path in sorted(RESULTS.glob("equal-error-*.json")):
+        run = json.loads(path.read_text())
+        sets = {label: entry for label, entry in run.get("sets", {}).items()
+                if "variants" in entry}
+        if not sets:
+            continue
+        figure, axes = plt.subplots(1, len(sets), figsize=(5.5 * len(sets), 4.2), squeeze=False)
+        for axis, (label, entry) in zip(axes[0], sets.items()):
+            curves = [(f"Cycles ({run['device']['cycles']})", entry["cycles"])]
+            curves.append((f"Luxel, defaults ({short_device(run['device']['luxel'])})",
+                           entry["luxel"]))
+            curves += [(f"Luxel, {spec}", variant["luxel"])
+                       for spec, variant in entry["variants"].items()]
+            for name, points in curves:
+                axis.plot([p["seconds"] for p in points],
+                          [max(p["rel_rms_debiased"], 1e-4) for p in points], marker=".",
+                          label=name)
+            for target in (0.05, 0.02, 0.01):
+                axis.axhline(target, color="grey", linewidth=0.6, linestyle=":")
+            axis.set_xscale("log")
+            axis.set_yscale("log")
+            axis.set_xlabel("seconds")
+            axis.set_ylabel("relative RMS against the reference (debiased)")
+            axis.set_title(f"{run['scene']}, {label}", fontsize=9)
+            axis.grid(True, which="both", alpha=0.3)
+            axis.legend(fontsize=7)
+        figure.tight_layout()
+        figure.savefig(path.with_suffix(".png"), dpi=110)
 
 
 def row_label(row):
@@ -232,3 +265,4 @@ if __name__ == "__main__":
         projections()
         projection_convergence()
         table1()
+        equal_error()
