@@ -806,7 +806,8 @@ class Solver:
 
     def _measure_emission(self):
         """Emitted power as the texels hold it (the unshot maps start as the emission),
-        summed in double precision."""
+        summed in double precision; the receiving texels, and the blocks at the shooting
+        level that hold texels (a mean block's share of the power, for _block_region)."""
         self._emitted_maps = np.zeros(3)
         self._texel_count = 0
         self._shooting_blocks = 0   # blocks at the shooting level holding texels
@@ -884,9 +885,9 @@ class Solver:
         return int(min(MAX_COARSER_LEVELS, max(0.0, math.log(ratio, 4.0))))
 
     def _gather_shooters(self, candidates, count):
-        """Shooters of up to ``count`` candidate blocks, strongest first, skipping a block
-        inside one already taken (adaptive levels). Their texels are read back before any of
-        them shoots, all in one wait for the GPU."""
+        """Shooters of up to ``count`` candidate blocks (or of their finer parts), strongest
+        first, skipping a block inside one already taken (adaptive levels). Their texels are
+        read back before any of them shoots, all in one wait for the GPU."""
         regions, finer = [], []
         for power, page_index, block in candidates:
             region, levels = self._block_region(page_index, block, power)
