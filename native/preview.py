@@ -41,6 +41,15 @@ def render_preview(solver, lightmaps, eye, target, up=(0.0, 1.0, 0.0), fov=40.0,
     emission = np.concatenate([scene.emission, scene.emission_two_sided[:, None]], axis=1)
     vertices = np.concatenate([scene.vertices[scene.triangles], lightmap,
                                np.repeat(emission[:, None, :], 3, axis=1)], axis=2)
+    # A triangle with a mirrored copy (Scene.with_back_faces) and the copy are each drawn from
+    # the front only, the copy showing the back; the others from both sides. Culled ones first.
+    culled = np.zeros(count, bool)
+    if scene.back_of is not None:
+        copies = scene.back_of >= 0
+        culled[copies] = True
+        culled[scene.back_of[copies]] = True
+    vertices = np.concatenate([vertices[culled], vertices[~culled]])
+    culled_count = int(culled.sum())
     width, height = size[0] * supersample, size[1] * supersample
     ctx = solver.ctx
     with using(ctx):
@@ -64,11 +73,12 @@ def render_preview(solver, lightmaps, eye, target, up=(0.0, 1.0, 0.0), fov=40.0,
             framebuffer.use()
             framebuffer.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
             texture.use(location=0)
-            # Where back faces have texels of their own, their copies show them from behind.
-            two_sided = scene.back_of is not None
-            ctx.enable(moderngl.DEPTH_TEST | (moderngl.CULL_FACE if two_sided else 0))
-            vao.render(moderngl.TRIANGLES)
-            ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+            ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+            vao.render(moderngl.TRIANGLES, vertices=3 * culled_count)
+            ctx.disable(moderngl.CULL_FACE)
+            vao.render(moderngl.TRIANGLES, vertices=3 * (count - culled_count),
+                       first=3 * culled_count)
+            ctx.disable(moderngl.DEPTH_TEST)
             image = np.frombuffer(color.read(), dtype="f4").reshape(height, width, 4)[..., :3]
         finally:
             gl.release()

@@ -211,3 +211,25 @@ def test_scene_without_normals_or_textures_loads_the_same(tmp_path):
     loaded = Scene.load(tmp_path / "box.npz")
     assert loaded.normals is None and loaded.albedo_uv is None and loaded.albedo_textures == []
     np.testing.assert_array_equal(loaded.triangle_area, scene.triangle_area)
+
+
+def test_preview_culls_only_faces_that_have_a_mirrored_copy(ctx, gl_clean):
+    """A floor seen from below hides the two-sided light above it in the preview: only a
+    triangle with a mirrored copy (here the light's) and the copy are drawn from the front
+    alone. The centre pixel shows the floor's lightmap (rho E / pi, below 0.5 x 10 / pi x
+    F < 1.6), not the light's radiance of 10."""
+    from native.preview import render_preview
+    builder = SceneBuilder()
+    builder.quad("floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], (0.5,) * 3)
+    builder.quad("light", [(-.3, -.3, 1), (-.3, .3, 1), (.3, .3, 1), (.3, -.3, 1)], (0.0,) * 3,
+                 (10.0,) * 3, two_sided=True)
+    solver = Solver(builder.build(), Settings(texel_density=10, max_shots=20), ctx=ctx)
+    try:
+        assert solver.scene.back_of is not None   # the light has its copy
+        solver.run()
+        view = render_preview(solver, solver.result(), eye=(0.0, 0.0, -2.0),
+                              target=(0.0, 0.0, 0.0), fov=20.0, size=(16, 16), supersample=1)
+        centre = view[8, 8]
+        assert 0.0 < centre.max() < 1.6
+    finally:
+        solver.release()
