@@ -8,7 +8,8 @@ evaluation paper), in lightmap space, with the hemicube for visibility.
     solver.release()                                     # every GL object, in one place
 
 Per texel the maps hold world position and area, normal, albedo, the receiving surface's
-number, the subdivision level, the accumulated irradiance E and the unshot radiance. A lightmap texel is rho * E / pi, the
+number, the subdivision level, the accumulated irradiance E and the unshot radiance. A
+lightmap texel is rho * E / pi, the
 reflected diffuse radiance a Cycles DIFFUSE bake (direct + indirect + colour) writes.
 """
 from dataclasses import dataclass, field
@@ -342,10 +343,9 @@ class Solver:
         emits[surfaces[scene.emission.max(axis=1) > 0.0]] = True
         renumber = np.empty_like(emits, dtype=np.int64)
         renumber[np.argsort(~emits, kind="stable")] = np.arange(len(emits))
-        self._emitting_surfaces = int(emits.sum())
+        self._emitting_surfaces = min(int(emits.sum()), SURFACE_NUMBERS)
         # 0 marks texels that do not receive.
         self._surfaces = renumber[surfaces] % SURFACE_NUMBERS + 1
-        self._emitting_surfaces = min(self._emitting_surfaces, SURFACE_NUMBERS)
         if scene.back_of is not None:   # a back face is its front's surface: one sheet
             copies = scene.back_of >= 0
             self._surfaces[copies] = self._surfaces[scene.back_of[copies]]
@@ -613,19 +613,18 @@ class Solver:
             page.level_only.clear(0.0, 0.0, 0.0, 0.0)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
-        for index, raster in enumerate(rasters):
-            raster.use()
-            raster.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            for start, end in zip(starts, ends):
-                page_index, texture = keys[start]
-                if page_index != index:
-                    continue
-                program = self._programs["attributes"]
-                _set(program, "u_use_texture", int(texture >= 0))
-                if texture >= 0:
-                    self._albedo_textures[texture].use(location=0)
-                vaos["attributes"].render(moderngl.TRIANGLES, vertices=3 * (end - start),
-                                          first=3 * start)
+        program = self._programs["attributes"]
+        rasters[0].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        for start, end in zip(starts, ends):   # runs are sorted by page
+            page_index, texture = keys[start]
+            if start and keys[start - 1][0] != page_index:   # the next page: the depth anew
+                rasters[page_index].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            rasters[page_index].use()
+            _set(program, "u_use_texture", int(texture >= 0))
+            if texture >= 0:
+                self._albedo_textures[texture].use(location=0)
+            vaos["attributes"].render(moderngl.TRIANGLES, vertices=3 * (end - start),
+                                      first=3 * start)
         ctx.disable(moderngl.DEPTH_TEST)
         # moderngl binds the last used framebuffer again after making one: not a released one.
         self._pages[0].area_only.use()
@@ -635,10 +634,9 @@ class Solver:
             irradiance = page.textures["irradiance"] = gl.texture(
                 (atlas.width, atlas.height), 4)
             page.receivers = gl.framebuffer([irradiance, page.textures["unshot"]])
-            cleared = gl.framebuffer([irradiance])
-            cleared.clear(0.0, 0.0, 0.0, 0.0)
-            page.area_only.use()
-            gl.release_now(cleared)
+            page.receivers.color_mask = [(True,) * 4, (False,) * 4]   # the unshot holds emission
+            page.receivers.clear(0.0, 0.0, 0.0, 0.0)
+            page.receivers.color_mask = [(True,) * 4, (True,) * 4]
 
         ctx.enable(moderngl.BLEND)
         ctx.blend_equation = moderngl.FUNC_ADD
