@@ -24,27 +24,23 @@ void main() {
     vec3 normal = decode_normal(texelFetch(u_normal, texel, 0).xy);
     // A texel's side on the surface: its area's root (less than a texel edge at chart borders).
     float side = sqrt(position.w);
-    int split = 1 << decode_level(texelFetch(u_level, texel, 0).r);
+    // A subdivided texel gathers at split x split points spread over a square of its area
+    // around its sample point (the part of the texel square its surface covers). Not next to
+    // the shooter: a texel there re-shoots from its sample point, so light gathered over the
+    // rest of its square (say in a gap behind an emitter) would leak out from there.
+    int split = in_near_field(position.xyz, side)
+        ? 1 : 1 << decode_level(texelFetch(u_level, texel, 0).r);
+    vec3 tangent = tangent_of(normal);
+    vec3 bitangent = cross(normal, tangent);
     vec3 irradiance = vec3(0.0);
-    if (split == 1 || in_near_field(position.xyz, side)) {
-        irradiance = irradiance_at(position.xyz, normal);
-    } else {
-        // A subdivided texel gathers at split x split points spread over a square of its
-        // area around its sample point (the part of the texel square its surface covers).
-        // Not next to the shooter: a texel there re-shoots from its sample point, so light
-        // gathered over the rest of its square (say in a gap behind an emitter) would leak
-        // out from there.
-        vec3 tangent = tangent_of(normal);
-        vec3 bitangent = cross(normal, tangent);
-        for (int j = 0; j < split; ++j) {
-            for (int i = 0; i < split; ++i) {
-                vec2 offset = (vec2(i, j) + 0.5) / float(split) - 0.5;
-                vec3 point = position.xyz + side * (offset.x * tangent + offset.y * bitangent);
-                irradiance += irradiance_at(point, normal);
-            }
-        }
-        irradiance /= float(split * split);
+    // One loop and one call site: a second inlined copy of irradiance_at() cost llvmpipe
+    // as much again per fragment, even where no texel took its branch.
+    for (int k = 0; k < split * split; ++k) {
+        vec2 offset = (vec2(k % split, k / split) + 0.5) / float(split) - 0.5;
+        irradiance += irradiance_at(position.xyz + side * (offset.x * tangent
+                                                           + offset.y * bitangent), normal);
     }
+    irradiance /= float(split * split);
     if (irradiance.r + irradiance.g + irradiance.b <= 0.0) discard;
     // The irradiance gained by this texel and the reflected radiance it must shoot later.
     out_irradiance = vec4(irradiance, 0.0);

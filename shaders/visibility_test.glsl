@@ -100,17 +100,18 @@ float visible_from_eye(vec3 world, vec3 normal, float surface) {
                                     u_epsilon,
                                     1.0 * footprint / cos_incidence);
     uint own_surface = uint(surface);
-    if (texel_sees(texel, local, local_normal, own, own_surface, tolerance)) return 1.0;
-    if (u_neighbour_visibility == 0) return 0.0;
-    // A receiver whose own texel fails may be at a glancing silhouette, the occluder's edge
-    // covering the texel's centre but not the receiver: it gets the share of the 3x3 texels
-    // around that see it.
+    // The receiver's own map texel first. If it fails, the receiver may be at a glancing
+    // silhouette, the occluder's edge covering the texel's centre but not the receiver: it
+    // gets the share of the 3x3 texels around that see it. One loop and one call site of
+    // texel_sees(), for llvmpipe's sake as in receiver_common.glsl.
     float seen = 0.0;
-    for (int j = -1; j <= 1; ++j) {
-        for (int i = -1; i <= 1; ++i) {
-            ivec3 n = ivec3(clamp(texel.xy + ivec2(i, j), ivec2(0), ivec2(last)), texel.z);
-            seen += texel_sees(n, local, local_normal, own, own_surface, tolerance) ? 1.0 : 0.0;
-        }
+    int last_neighbour = u_neighbour_visibility != 0 ? 9 : 0;
+    for (int k = -1; k < last_neighbour; ++k) {
+        ivec2 offset = k < 0 ? ivec2(0) : ivec2(k % 3 - 1, k / 3 - 1);
+        ivec3 n = ivec3(clamp(texel.xy + offset, ivec2(0), ivec2(last)), texel.z);
+        bool sees = texel_sees(n, local, local_normal, own, own_surface, tolerance);
+        if (k < 0 && sees) return 1.0;
+        if (k >= 0 && sees) seen += 1.0;
     }
     return seen / 9.0;
 }
