@@ -1296,7 +1296,7 @@ def _lightmap_tangent(texels, positions, n):
     """The world direction of +x in the lightmap over a shooter's texels (so that its quad
     lines up with them), by least squares of their positions on their texel coordinates;
     along +y turned a quarter when they span one column, tangent_of(n) for one texel."""
-    spans = [len(np.unique(texels[:, axis])) > 1 for axis in (0, 1)]
+    spans = [texels[:, axis].min() < texels[:, axis].max() for axis in (0, 1)]
     if not any(spans):
         return _tangent_of(n)
     design = np.column_stack([np.ones(len(texels)), texels[:, [i for i in (0, 1) if spans[i]]]])
@@ -1312,6 +1312,9 @@ def _rectangle_around(members, strongest, width, height):
     columns of members border it: a shooter's quad must lie where its texels are, or the
     receivers next to it (a ceiling 0.1 mm over a lamp) get the light of the wrong place.
     The members left out stay unshot for a later shot."""
+    columns, rows = members % width, members // width
+    if len(members) == (np.ptp(columns) + 1) * (np.ptp(rows) + 1):
+        return members   # a rectangle already (and so around the strongest)
     mask = np.zeros((height, width), dtype=bool)
     mask.flat[members] = True
     x0 = x1 = strongest % width
