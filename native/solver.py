@@ -428,6 +428,7 @@ class Solver:
         self._small_x = self._occluder_centres[self._small_occluders, 0]
         self._large_occluders = np.nonzero(~small)[0]
         self._crossing_planes = {}   # per shooting block region
+        self._region_charts = {}     # per shooting block region: _region_charts
         initial = settings.subdivision_level if settings.subdivision == "REGULAR" else 0
         self._caster_levels = np.full(len(positions), initial, dtype=np.int32)
         self._caster_vbo = gl.buffer(np.repeat(self._caster_levels, 3).astype("f4").tobytes())
@@ -894,9 +895,9 @@ class Solver:
                 finer.append(levels)
             if len(regions) == count:
                 break
-        shooters = [self._make_shooter(part, part_maps)
+        shooters = [self._make_shooter(part, part_maps, self._charts_of(region, maps, rows))
                     for region, levels, maps in zip(regions, finer, self._read_blocks(regions))
-                    for part, part_maps in self._parts(region, maps, levels)]
+                    for part, part_maps, rows in self._parts(region, maps, levels)]
         return [shooter for shooter in shooters if shooter is not None]
 
     def _read_blocks(self, regions):
@@ -937,9 +938,10 @@ class Solver:
 
     def _parts(self, region, maps, finer):
         """The region, or its sub-blocks ``finer`` levels down, each with its rows of the
-        maps (row-major within the sub-block, as _make_shooter reads them)."""
+        maps (row-major within the sub-block, as _make_shooter reads them) and their indices
+        in the region's."""
         if finer == 0:
-            yield region, maps
+            yield region, maps, np.arange(len(maps[0]))
             return
         page_index, x0, y0, size = region
         width, height = min(size, self.atlas.width - x0), min(size, self.atlas.height - y0)
@@ -949,9 +951,21 @@ class Solver:
         for y in range(0, height, part):
             for x in range(0, width, part):
                 rows = index[(column >= x) & (column < x + part) & (row >= y) & (row < y + part)]
-                yield (page_index, x0 + x, y0 + y, part), [values[rows] for values in maps]
+                yield (page_index, x0 + x, y0 + y, part), [values[rows] for values in maps], rows
 
-    def _make_shooter(self, region, maps):
+    def _charts_of(self, region, maps, rows):
+        """For a part of ``region`` (its ``rows`` of the region's maps): the chart of each of
+        its texels and the charts' lightmap-to-world maps (_region_charts). Texels do not
+        move, so once per region."""
+        charts = self._region_charts.get(region)
+        if charts is None:
+            page_index, x0, y0, size = region
+            charts = self._region_charts[region] = _region_charts(
+                maps[0], maps[2][:, 3], min(size, self.atlas.width - x0), (x0, y0))
+        labels, by_label = charts
+        return labels[rows], by_label
+
+    def _make_shooter(self, region, maps, charts):
         """The shooter of a block from its maps: the coplanar part of the block around its
         strongest texel with similar unshot radiance (blocks at coarse levels may also hold
         texels of other charts, which keep their energy)."""
@@ -981,11 +995,16 @@ class Solver:
         b = np.cross(n, t)
         taken = unshot[members].astype(np.float32)
         taken[:, 3] = 0.0   # the texel size stays
+        labels, by_label = charts
+        chart = by_label.get(int(labels[strongest]))
+        if chart is not None:
+            quad = _chart_quad(texels + (x0, y0), position[members, :3], chart, total_area)
+        else:
+            quad = _shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
+                                 total_area, centre)
         return _Shooter(
             page=page, texels=texels + (x0, y0),
-            centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area,
-            quad=_shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
-                               total_area, centre),
+            centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
             radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken)
 
     def _same_side_as(self, region, strongest, members, position, texel_size):
@@ -1332,6 +1351,77 @@ def _rectangle_around(members, strongest, width, height):
             y1, grown = y1 + 1, True
     rows, columns = np.mgrid[y0:y1 + 1, x0:x1 + 1]
     return (rows * width + columns).ravel()
+
+
+# Slices of a (rows, columns) grid: each texel and its neighbour along x, then along y.
+_NEIGHBOURS = (((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
+               ((slice(1, None), slice(None)), (slice(None, -1), slice(None))))
+
+
+def _region_charts(position, texel_size, width, origin):
+    """The charts in a read region and how each maps the lightmap to the world. Texels are
+    joined through occupied neighbours (xatlas pads charts apart). Per chart with whole
+    texels next to each other along both lightmap axes: (anchor, its texel, step x, step y,
+    inverse), world = anchor + (texel - its texel) @ (step x, step y), the steps being the
+    mean world step between neighbouring whole texels (xatlas may scale a chart's axes
+    differently: the Cornell light's texels are 16.25 x 15 mm). Returns (label per texel,
+    {label: that tuple})."""
+    height = len(position) // width
+    points = position[:, :3].reshape(height, width, 3)
+    occupied = (position[:, 3] > 0.0).reshape(height, width)
+    whole = (position[:, 3] >= 0.999 * texel_size ** 2).reshape(height, width) & occupied
+    labels = np.where(occupied, np.arange(height * width).reshape(height, width), -1)
+    while True:   # each texel takes the least label among its occupied neighbours
+        before = labels.copy()
+        for a, b in _NEIGHBOURS:
+            joined = occupied[a] & occupied[b]
+            labels[a] = np.where(joined, np.minimum(labels[a], before[b]), labels[a])
+            labels[b] = np.where(joined, np.minimum(labels[b], before[a]), labels[b])
+        if np.array_equal(before, labels):
+            break
+    steps = []
+    for a, b in _NEIGHBOURS:   # along the lightmap's x (columns), then y (rows)
+        pairs = whole[a] & whole[b] & (labels[a] == labels[b])
+        steps.append((labels[b][pairs], (points[a] - points[b])[pairs]))
+    charts = {}
+    for label in np.unique(labels[whole]):
+        along = [differences[owners == label] for owners, differences in steps]
+        if len(along[0]) == 0 or len(along[1]) == 0:
+            continue
+        step_x, step_y = along[0].mean(axis=0), along[1].mean(axis=0)
+        row, column = np.argwhere(whole & (labels == label))[0]
+        basis = np.stack([step_x, step_y], axis=1)
+        charts[int(label)] = (points[row, column], np.array([origin[0] + column,
+                                                             origin[1] + row], dtype=np.float64),
+                              basis, np.linalg.pinv(basis))
+    return labels.ravel(), charts
+
+
+def _chart_quad(texels, points, chart, area):
+    """A shooter's quad from its texels' rectangle (page texel coordinates) mapped to the
+    world by their chart: neighbouring shooters' quads tile the surface as the texels do.
+    A part-covered texel at the rectangle's side covers the side of its texel away from the
+    chart's edge, its sample point in the middle of what it covers: the quad's side is moved
+    in to match. Scaled to the texels' exact area about its middle."""
+    anchor, anchor_texel, basis, inverse = chart
+    at = (points - anchor) @ inverse.T + anchor_texel   # sample points, in texels
+    sides = []
+    for axis in (0, 1):
+        low, high = texels[:, axis].min(), texels[:, axis].max()
+        first, last = texels[:, axis] == low, texels[:, axis] == high
+        shift = at[:, axis] - texels[:, axis]
+        # Toward the chart's inside a side stays on the texel's edge.
+        sides.append((np.max(np.where(shift[first] > 0.0, 2.0 * at[first, axis] - low - 0.5,
+                                      low - 0.5)),
+                      np.min(np.where(shift[last] < 0.0, 2.0 * at[last, axis] - high + 0.5,
+                                      high + 0.5))))
+    (x0, x1), (y0, y1) = sides
+    corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) - anchor_texel
+    world = anchor + corners @ basis.T
+    middle = world.mean(axis=0)
+    spanned = np.linalg.norm(np.cross(world[1] - world[0], world[3] - world[0]))
+    scale = math.sqrt(area / max(spanned, 1e-30))
+    return list(middle + (world - middle) * scale)
 
 
 def _shooter_quad(offsets, texel_sizes, t, b, area, centre):
