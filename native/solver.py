@@ -56,10 +56,13 @@ BATCH_MIN_SHARE = 0.25
 CROSSING_MARGIN = 1e-3
 # Edges bending less than this join triangles into one smooth surface (see smooth_surfaces).
 SMOOTH_SURFACE_DEGREES = 40.0
+# A gap under this share of a texel between facing surfaces is a sandwich: receivers there
+# gather over their square (receive_patch.frag) and shooters over them shoot from that part.
+SANDWICH_GAP = 0.1
 # The regions: the first arg-max pyramid level with at most this many texels.
 SELECTION_REGIONS = 1024
 # What a shooter reads of its block: (attachment of _Page.blocks, components).
-BLOCK_MAPS = ((0, 4), (1, 2), (2, 4))
+BLOCK_MAPS = ((0, 4), (1, 2), (2, 4), (3, 4))
 # Surfaces are numbered 1..SURFACE_NUMBERS (the visibility map keeps 12 bits), then again.
 SURFACE_NUMBERS = 4095
 # The octahedral normal's steps each way of 0 in its 16-bit channels (texel_maps.glsl).
@@ -154,11 +157,13 @@ class _Shooter:
     quad: list                  # 4 world-space corners
     radiance: np.ndarray        # leaving its front (every shooter is one-sided)
     unshot: np.ndarray          # (N, 4) float32: what this shot takes from each texel
+    extent: tuple               # its surface along its frame's t and b (_surface_extent)
 
 
 @dataclass
 class _Page:
-    blocks: object          # framebuffer: position, normal, unshot (read back per shooter)
+    blocks: object          # framebuffer: position, normal, unshot, material (read back
+                            # per shooter)
     unshot_only: object     # framebuffer: unshot
     area_only: object       # framebuffer: position (area in .w)
     level_only: object      # framebuffer: subdivision level
@@ -409,7 +414,7 @@ class Solver:
         self._visibility_vaos = {name: gl.vertex_array(self._programs[name], scene_content)
                                  for name in ("visibility", "hemisphere", "nonlinear")}
         # Occluders' planes and bounds, to keep a shooter on one side of what crosses it.
-        corners = positions.astype(np.float64)
+        corners = self._occluder_corners = positions.astype(np.float64)
         normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         self._occluder_normals = normals / np.maximum(
             np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
@@ -442,6 +447,7 @@ class Solver:
         # The BLOCK_MAPS of every block of a selection.
         self._staging = gl.buffer(reserve=settings.shooters_per_selection * block * block * 4
                                   * sum(components for _, components in BLOCK_MAPS))
+        self._surface_points = {}   # surface number -> its vertices (_surface_extent)
         self._strongest_patch = 0.0
         self._strongest_shot = 0.0
         self._queue = []
@@ -474,7 +480,7 @@ class Solver:
             "nonlinear": {"u_resolution": float(self._map_size)},
             "hemisphere": {"u_resolution": float(self._map_size)},
             "hemisphere_tessellated": {"u_resolution": float(self._map_size)},
-            "patch": receivers,
+            "patch": {**receivers, "u_sandwich_gap": SANDWICH_GAP},
             "light": receivers,
             "take": {"u_atlas_size": size},
             "count": {**receivers, "u_atlas_size": size},
@@ -554,7 +560,8 @@ class Solver:
             "level": gl.texture(size, 1, "nu1"),        # subdivision level
         }
         page = _Page(
-            blocks=gl.framebuffer([textures[n] for n in ("position", "normal", "unshot")]),
+            blocks=gl.framebuffer([textures[n] for n in ("position", "normal", "unshot",
+                                                        "material")]),
             unshot_only=gl.framebuffer([textures["unshot"]]),
             area_only=gl.framebuffer([textures["position"]]),
             level_only=gl.framebuffer([textures["level"]]),
@@ -901,8 +908,8 @@ class Solver:
         return [shooter for shooter in shooters if shooter is not None]
 
     def _read_blocks(self, regions):
-        """Per region: its position (N, 4), normal (N, 3) and unshot (N, 4) maps as float64
-        rows, queued into one staging buffer and read back once."""
+        """Per region: its position (N, 4), normal (N, 3), unshot (N, 4) and surface number (N)
+        as float64 rows, queued into one staging buffer and read back once."""
         offset, views = 0, []
         for page_index, x0, y0, size in regions:
             page = self._pages[page_index]
@@ -917,8 +924,9 @@ class Solver:
         data = np.frombuffer(self._staging.read(size=offset), dtype="f4").astype(np.float64)
         rows = [data[start:start + components * count].reshape(count, components)
                 for start, count, components in views]
-        return [(position, _decode_normals(normal), unshot)
-                for position, normal, unshot in zip(rows[0::3], rows[1::3], rows[2::3])]
+        return [(position, _decode_normals(normal), unshot,
+                 np.floor(material[:, 3] * 65535.0 + 0.5))   # decode_surface()
+                for position, normal, unshot, material in zip(*(rows[i::4] for i in range(4)))]
 
     def _block_region(self, page_index, block, power):
         """(page, x0, y0, size) of the texels a block shoots from, and how many levels finer
@@ -972,7 +980,7 @@ class Solver:
         page_index, x0, y0, size = region
         page = self._pages[page_index]
         width = min(size, self.atlas.width - x0)
-        position, normal, unshot = maps
+        position, normal, unshot, surface = maps
         area, radiance, texel_size = position[:, 3], unshot[:, :3], unshot[:, 3]
         power = radiance.mean(axis=1) * area
         strongest = int(np.argmax(power))
@@ -1002,10 +1010,60 @@ class Solver:
         else:
             quad = _shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
                                  total_area, centre)
+        quad = self._facing_across_gap(quad, centre, t, b, n, texel_size[strongest])
         return _Shooter(
             page=page, texels=texels + (x0, y0),
             centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
-            radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken)
+            radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
+            extent=self._surface_extent(int(surface[strongest]), centre, t, b))
+
+    def _facing_across_gap(self, quad, centre, t, b, n, texel_size):
+        """The quad cut to the rectangle along t and b that holds the surfaces across a gap
+        under SANDWICH_GAP of a texel in front of the shooter, when its centre lies over them
+        (a ceiling texel over a lamp's edge): receivers in such gaps gather the share of their
+        square over a shooter (receive_patch.frag), so this texel got that light over that part
+        only and sends it back from there: from its whole square, the share over the room
+        reached no receiver and was lost. The quad unchanged otherwise."""
+        reach = SANDWICH_GAP * texel_size
+        corners = np.asarray(quad)
+        low, high = corners.min(axis=0) - reach, corners.max(axis=0) + reach
+        first, last = np.searchsorted(self._small_x, [low[0] - self._small_reach,
+                                                      high[0] + self._small_reach])
+        candidates = np.concatenate([self._small_occluders[first:last], self._large_occluders])
+        near = candidates[(self._occluder_low[candidates] <= high).all(axis=1)
+                          & (self._occluder_high[candidates] >= low).all(axis=1)]
+        normals = self._occluder_normals[near]
+        parallel = np.abs(normals @ n) > 0.99   # either face: a lamp's back is its front's copy
+        near, normals = near[parallel], normals[parallel]
+        height = (self._occluder_offsets[near] - normals @ centre) / (normals @ n)
+        near = near[(height > 0.0) & (height <= reach)]
+        if len(near) == 0:
+            return quad
+        points = self._occluder_corners[near].reshape(-1, 3) - centre
+        u, v = points @ t, points @ b
+        if not (u.min() <= 0.0 <= u.max() and v.min() <= 0.0 <= v.max()):
+            return quad
+        offsets = corners - centre
+        qu, qv = offsets @ t, offsets @ b
+        u0, u1 = max(qu.min(), u.min()), min(qu.max(), u.max())
+        v0, v1 = max(qv.min(), v.min()), min(qv.max(), v.max())
+        if u1 <= u0 or v1 <= v0:
+            return quad
+        return [centre + su * t + sv * b for su, sv in ((u0, v0), (u1, v0), (u1, v1), (u0, v1))]
+
+    def _surface_extent(self, surface, centre, t, b):
+        """The rectangle (u min, u max, v min, v max) along t and b from ``centre`` that holds
+        the shooter's surface (all surfaces of its number), or an empty one for a shooter that
+        does not receive (its texels hold no number)."""
+        if surface <= 0:
+            return (1.0, -1.0, 1.0, -1.0)
+        points = self._surface_points.get(surface)
+        if points is None:
+            triangles = self.scene.triangles[self._surfaces == surface]
+            points = self._surface_points[surface] = self.scene.vertices[np.unique(triangles)]
+        offsets = points - centre
+        u, v = offsets @ t, offsets @ b
+        return (float(u.min()), float(u.max()), float(v.min()), float(v.max()))
 
     def _same_side_as(self, region, strongest, members, position, texel_size):
         """The members on the strongest texel's side of every occluder whose plane runs
@@ -1057,7 +1115,13 @@ class Solver:
         program = self._programs["patch"]
         _set(program, "u_quad", [tuple(corner) for corner in shooter.quad])
         _set(program, "u_centre", tuple(shooter.centre))
-        _set(program, "u_radiance", tuple(shooter.radiance))
+        # A quad cut to the part of its texels facing a surface across a thin gap emits their
+        # power from there.
+        quad_area = float(np.linalg.norm(np.cross(shooter.quad[1] - shooter.quad[0],
+                                                  shooter.quad[3] - shooter.quad[0])))
+        _set(program, "u_radiance", tuple(shooter.radiance * shooter.area
+                                          / max(quad_area, 1e-30)))
+        _set(program, "u_surface_extent", shooter.extent)
         self._timed("receivers", self._update_receivers, "patch")
 
     def _shoot_light(self, light):

@@ -16,7 +16,7 @@ bool in_near_field(vec3 point, float texel_size) {
     return false;  // point lights and suns have no extent
 }
 
-vec3 irradiance_at(vec3 point, vec3 normal) {
+vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     vec3 irradiance;
     if (u_light_kind == 2) {
         float cos_r = -dot(normal, u_frame[2]);

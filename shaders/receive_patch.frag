@@ -10,6 +10,9 @@ uniform vec3 u_quad[4];        // shooter quad corners, world space
 uniform vec3 u_centre;         // shooter centre
 uniform vec3 u_radiance;       // unshot radiance leaving the front face (shooters are
                                // one-sided: a two-sided emitter shoots from a mirrored copy)
+uniform vec4 u_surface_extent; // u min, u max, v min, v max of the shooter's surface along
+                               // u_frame's tangent and bitangent, from u_centre
+uniform float u_sandwich_gap;  // a gap under this share of a texel is a sandwich
 
 float polygon_form_factor(vec3 p, vec3 n) {
     vec3 poly[5];
@@ -40,7 +43,38 @@ bool in_near_field(vec3 point, float texel_size) {
     return distance(point, u_centre) < reach;
 }
 
-vec3 irradiance_at(vec3 point, vec3 normal) {
+// The share of a receiver's texel square (side 'side' around 'point', parallel to the shooter,
+// taken along the shooter's tangent and bitangent like its quad) over the quad: its mean form
+// factor as the gap between them goes to 0. Rectangles, not polygons clipped in arrays: those
+// cost llvmpipe a third more per fragment of every receiver pass.
+float covered_share(vec3 point, float side) {
+    mat3x2 to_plane = transpose(mat2x3(u_frame[0], u_frame[1]));
+    vec2 low = vec2(3.0e38), high = vec2(-3.0e38);
+    for (int i = 0; i < 4; ++i) {
+        vec2 corner = to_plane * (u_quad[i] - u_centre);
+        low = min(low, corner);
+        high = max(high, corner);
+    }
+    vec2 centre = to_plane * (point - u_centre);
+    vec2 overlap = max(min(high, centre + 0.5 * side) - max(low, centre - 0.5 * side), 0.0);
+    return min(overlap.x * overlap.y / (side * side), 1.0);
+}
+
+// A receiver facing the shooter across a gap under u_sandwich_gap of its texel, its sample
+// point over the shooter's surface (a ceiling 0.1 mm over a lamp's back, or 1 cm over an
+// office lamp at 25 cm texels). At its sample point alone a texel gets all of a shooter over
+// the point and none of one beside it: what it gets depends on how the two texel grids fall,
+// and a texel half over a lamp got the whole lamp's light (the office's gaps made a quarter
+// of its light). Not with the sample point beside the surface: light the texel's square
+// gathered over the surface would be shot again from there, out of the gap.
+bool sandwiched(vec3 from_shooter, float height, vec3 normal, float side) {
+    vec2 at = vec2(dot(from_shooter, u_frame[0]), dot(from_shooter, u_frame[1]));
+    return height < u_sandwich_gap * side && dot(normal, u_frame[2]) < -0.99
+        && all(greaterThanEqual(at, u_surface_extent.xz))
+        && all(lessThanEqual(at, u_surface_extent.yw));
+}
+
+vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     vec3 from_shooter = point - u_centre;
     float height = dot(from_shooter, u_frame[2]);
     // Only what lies in front. The shooter's own plane gets nothing: Lambert's formula jumps
@@ -48,5 +82,7 @@ vec3 irradiance_at(vec3 point, vec3 normal) {
     if (height <= u_epsilon || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
     float visible = visible_from_eye(point, normal, receiver_surface);
     if (visible <= 0.0) return vec3(0.0);
-    return PI * u_radiance * polygon_form_factor(point, normal) * visible;
+    float form_factor = near_side > 0.0 && sandwiched(from_shooter, height, normal, near_side)
+        ? covered_share(point, near_side) : polygon_form_factor(point, normal);
+    return PI * u_radiance * form_factor * visible;
 }

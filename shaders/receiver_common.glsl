@@ -11,7 +11,9 @@ const float PI = 3.14159265358979;
 
 float receiver_surface;   // the number of the texel's surface, for visible_from_eye()
 
-vec3 irradiance_at(vec3 point, vec3 normal);
+// The irradiance at 'point'; 'near_side' > 0: the point is the sample point of a texel of that
+// side in the shooter's near field.
+vec3 irradiance_at(vec3 point, vec3 normal, float near_side);
 // Whether the texel lies so close to the shooter that it gathers at its sample point only.
 bool in_near_field(vec3 point, float texel_size);
 
@@ -28,8 +30,8 @@ void main() {
     // around its sample point (the part of the texel square its surface covers). Not next to
     // the shooter: a texel there re-shoots from its sample point, so light gathered over the
     // rest of its square (say in a gap behind an emitter) would leak out from there.
-    int split = in_near_field(position.xyz, side)
-        ? 1 : 1 << decode_level(texelFetch(u_level, texel, 0).r);
+    float near_side = in_near_field(position.xyz, side) ? side : 0.0;
+    int split = near_side > 0.0 ? 1 : 1 << decode_level(texelFetch(u_level, texel, 0).r);
     vec3 tangent = tangent_of(normal);
     vec3 bitangent = cross(normal, tangent);
     vec3 irradiance = vec3(0.0);
@@ -38,7 +40,8 @@ void main() {
     for (int k = 0; k < split * split; ++k) {
         vec2 offset = (vec2(k % split, k / split) + 0.5) / float(split) - 0.5;
         irradiance += irradiance_at(position.xyz + side * (offset.x * tangent
-                                                           + offset.y * bitangent), normal);
+                                                           + offset.y * bitangent), normal,
+                                    near_side);
     }
     irradiance /= float(split * split);
     if (irradiance.r + irradiance.g + irradiance.b <= 0.0) discard;
