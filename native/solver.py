@@ -1026,12 +1026,7 @@ class Solver:
         reached no receiver and was lost. The quad unchanged otherwise."""
         reach = SANDWICH_GAP * texel_size
         corners = np.asarray(quad)
-        low, high = corners.min(axis=0) - reach, corners.max(axis=0) + reach
-        first, last = np.searchsorted(self._small_x, [low[0] - self._small_reach,
-                                                      high[0] + self._small_reach])
-        candidates = np.concatenate([self._small_occluders[first:last], self._large_occluders])
-        near = candidates[(self._occluder_low[candidates] <= high).all(axis=1)
-                          & (self._occluder_high[candidates] >= low).all(axis=1)]
+        near = self._occluders_within(corners.min(axis=0) - reach, corners.max(axis=0) + reach)
         normals = self._occluder_normals[near]
         parallel = np.abs(normals @ n) > 0.99   # either face: a lamp's back is its front's copy
         near, normals = near[parallel], normals[parallel]
@@ -1083,15 +1078,19 @@ class Solver:
         own_side = np.sign(points[strongest] @ normals.T - offsets)
         return members[(sides * own_side >= -CROSSING_MARGIN * texel_size).all(axis=1)]
 
-    def _planes_crossing(self, points, texel_size):
-        """Planes (normals, offsets) of the occluders near ``points`` that have some of them
-        on each side."""
-        low, high = points.min(axis=0) - texel_size, points.max(axis=0) + texel_size
+    def _occluders_within(self, low, high):
+        """The occluders whose bounds meet the box from ``low`` to ``high``."""
         first, last = np.searchsorted(self._small_x, [low[0] - self._small_reach,
                                                       high[0] + self._small_reach])
         candidates = np.concatenate([self._small_occluders[first:last], self._large_occluders])
-        near = candidates[(self._occluder_low[candidates] <= high).all(axis=1)
+        return candidates[(self._occluder_low[candidates] <= high).all(axis=1)
                           & (self._occluder_high[candidates] >= low).all(axis=1)]
+
+    def _planes_crossing(self, points, texel_size):
+        """Planes (normals, offsets) of the occluders near ``points`` that have some of them
+        on each side."""
+        near = self._occluders_within(points.min(axis=0) - texel_size,
+                                      points.max(axis=0) + texel_size)
         normals, offsets = self._occluder_normals[near], self._occluder_offsets[near]
         sides = points @ normals.T - offsets
         margin = CROSSING_MARGIN * texel_size

@@ -278,6 +278,16 @@ def test_the_plates_back_receives_the_light_when_back_faces_receive(ctx, gl_clea
     assert ledger.imbalance() < 1e-4
 
 
+def lamp_under_ceiling(lamp, half_width, rho_c, rho_l, radiance, receive_back=True):
+    """A square ceiling in z = 0 facing -z, and under it a lamp emitting from both faces."""
+    builder = SceneBuilder()
+    w = half_width
+    builder.quad("ceiling", [(-w, -w, 0), (-w, w, 0), (w, w, 0), (w, -w, 0)], (rho_c,) * 3)
+    builder.quad("lamp", lamp, (rho_l,) * 3, (radiance,) * 3, two_sided=True,
+                 receive_back=receive_back)
+    return builder.build()
+
+
 @pytest.mark.parametrize("projection", PROJECTIONS)
 def test_light_bounces_between_a_lamps_back_and_the_ceiling(ctx, gl_clean, projection):
     """A 1 m lamp 1 cm under a 1.4 m ceiling, emitting L from both faces (Blender's emission
@@ -288,12 +298,8 @@ def test_light_bounces_between_a_lamps_back_and_the_ceiling(ctx, gl_clean, proje
     rho_c, rho_l, radiance, gap = 0.7, 0.8, 10.0, 0.01
     lamp = [(-.5, -.5, -gap), (-.5, .5, -gap), (.5, .5, -gap), (.5, -.5, -gap)]   # faces -z
     for receive_back in (False, True):
-        builder = SceneBuilder()
-        builder.quad("ceiling", [(-.7, -.7, 0), (-.7, .7, 0), (.7, .7, 0), (.7, -.7, 0)],
-                     (rho_c,) * 3)                                          # faces -z
-        builder.quad("lamp", lamp, (rho_l,) * 3, (radiance,) * 3, two_sided=True,
-                     receive_back=receive_back)
-        images, samples, ledger, _, _ = solve(builder.build(), ctx, projection=projection,
+        scene = lamp_under_ceiling(lamp, 0.7, rho_c, rho_l, radiance, receive_back)
+        images, samples, ledger, _, _ = solve(scene, ctx, projection=projection,
                                               texel_density=20, threshold=0.002)
         values, positions, _ = occupied_texels(images, samples)
         middle = (np.abs(positions[:, 2]) < 1e-6) & (np.abs(positions[:, :2]) < 0.3).all(axis=1)
@@ -320,13 +326,9 @@ def test_light_bounces_evenly_in_a_gap_much_thinner_than_a_texel(ctx, gl_clean, 
     rho_c, rho_l, radiance, gap = 0.725, 0.78, 17.0, 1e-4
     x0, y0, x1, y1 = -0.052, -0.0455, 0.078, 0.0595
     lamp = [(x0, y0, -gap), (x0, y1, -gap), (x1, y1, -gap), (x1, y0, -gap)]   # faces -z
-    builder = SceneBuilder()
-    builder.quad("ceiling", [(-.3, -.3, 0), (-.3, .3, 0), (.3, .3, 0), (.3, -.3, 0)],
-                 (rho_c,) * 3)                                              # faces -z
-    builder.quad("lamp", lamp, (rho_l,) * 3, (radiance,) * 3, two_sided=True,
-                 receive_back=True)
-    images, samples, ledger, _, _ = solve(builder.build(), ctx, projection=projection,
-                                          texel_density=60, threshold=0.001)
+    images, samples, ledger, _, _ = solve(lamp_under_ceiling(lamp, 0.3, rho_c, rho_l, radiance),
+                                          ctx, projection=projection, texel_density=60,
+                                          threshold=0.001)
     values, positions, _ = occupied_texels(images, samples)
     texel = 1.0 / 60
     inside = ((np.abs(positions[:, 2]) < 1e-7)
