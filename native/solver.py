@@ -56,8 +56,8 @@ BATCH_MIN_SHARE = 0.25
 CROSSING_MARGIN = 1e-3
 # Edges bending less than this join triangles into one smooth surface (see smooth_surfaces).
 SMOOTH_SURFACE_DEGREES = 40.0
-# A gap under this share of a texel between facing surfaces is a sandwich: receivers there
-# gather over their square (receive_patch.frag) and shooters over them shoot from that part.
+# A gap under this share of a texel between facing surfaces is thin: receivers across it
+# gather over their square (receive_patch.frag).
 SANDWICH_GAP = 0.1
 # The regions: the first arg-max pyramid level with at most this many texels.
 SELECTION_REGIONS = 1024
@@ -414,7 +414,7 @@ class Solver:
         self._visibility_vaos = {name: gl.vertex_array(self._programs[name], scene_content)
                                  for name in ("visibility", "hemisphere", "nonlinear")}
         # Occluders' planes and bounds, to keep a shooter on one side of what crosses it.
-        corners = self._occluder_corners = positions.astype(np.float64)
+        corners = positions.astype(np.float64)
         normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         self._occluder_normals = normals / np.maximum(
             np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
@@ -1010,41 +1010,11 @@ class Solver:
         else:
             quad = _shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
                                  total_area, centre)
-        quad = self._facing_across_gap(quad, centre, t, b, n, texel_size[strongest])
         return _Shooter(
             page=page, texels=texels + (x0, y0),
             centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
             radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
             extent=self._surface_extent(int(surface[strongest]), centre, t, b))
-
-    def _facing_across_gap(self, quad, centre, t, b, n, texel_size):
-        """The quad cut to the rectangle along t and b that holds the surfaces across a gap
-        under SANDWICH_GAP of a texel in front of the shooter, when its centre lies over them
-        (a ceiling texel over a lamp's edge): receivers in such gaps gather the share of their
-        square over a shooter (receive_patch.frag), so this texel got that light over that part
-        only and sends it back from there: from its whole square, the share over the room
-        reached no receiver and was lost. The quad unchanged otherwise."""
-        reach = SANDWICH_GAP * texel_size
-        corners = np.asarray(quad)
-        near = self._occluders_within(corners.min(axis=0) - reach, corners.max(axis=0) + reach)
-        normals = self._occluder_normals[near]
-        parallel = np.abs(normals @ n) > 0.99   # either face: a lamp's back is its front's copy
-        near, normals = near[parallel], normals[parallel]
-        height = (self._occluder_offsets[near] - normals @ centre) / (normals @ n)
-        near = near[(height > 0.0) & (height <= reach)]
-        if len(near) == 0:
-            return quad
-        points = self._occluder_corners[near].reshape(-1, 3) - centre
-        u, v = points @ t, points @ b
-        if not (u.min() <= 0.0 <= u.max() and v.min() <= 0.0 <= v.max()):
-            return quad
-        offsets = corners - centre
-        qu, qv = offsets @ t, offsets @ b
-        u0, u1 = max(qu.min(), u.min()), min(qu.max(), u.max())
-        v0, v1 = max(qv.min(), v.min()), min(qv.max(), v.max())
-        if u1 <= u0 or v1 <= v0:
-            return quad
-        return [centre + su * t + sv * b for su, sv in ((u0, v0), (u1, v0), (u1, v1), (u0, v1))]
 
     def _surface_extent(self, surface, centre, t, b):
         """The rectangle (u min, u max, v min, v max) along t and b from ``centre`` that holds
@@ -1114,12 +1084,7 @@ class Solver:
         program = self._programs["patch"]
         _set(program, "u_quad", [tuple(corner) for corner in shooter.quad])
         _set(program, "u_centre", tuple(shooter.centre))
-        # A quad cut to the part of its texels facing a surface across a thin gap emits their
-        # power from there.
-        quad_area = float(np.linalg.norm(np.cross(shooter.quad[1] - shooter.quad[0],
-                                                  shooter.quad[3] - shooter.quad[0])))
-        _set(program, "u_radiance", tuple(shooter.radiance * shooter.area
-                                          / max(quad_area, 1e-30)))
+        _set(program, "u_radiance", tuple(shooter.radiance))
         _set(program, "u_surface_extent", shooter.extent)
         self._timed("receivers", self._update_receivers, "patch")
 

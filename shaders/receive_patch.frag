@@ -43,21 +43,40 @@ bool in_near_field(vec3 point, float texel_size) {
     return distance(point, u_centre) < reach;
 }
 
-// The share of a receiver's texel square (side 'side' around 'point', parallel to the shooter,
-// taken along the shooter's tangent and bitangent like its quad) over the quad: its mean form
-// factor as the gap between them goes to 0. Rectangles, not polygons clipped in arrays: those
-// cost llvmpipe a third more per fragment of every receiver pass.
-float covered_share(vec3 point, float side) {
+float cross2(vec2 a, vec2 b) { return a.x * b.y - a.y * b.x; }
+
+// The share of a receiver's texel square (side 'side' around 'point', parallel to the shooter)
+// over the shooter's quad: its mean form factor as the gap between them goes to 0.
+float covered_share(vec3 point, vec3 normal, float side) {
     mat3x2 to_plane = transpose(mat2x3(u_frame[0], u_frame[1]));
-    vec2 low = vec2(3.0e38), high = vec2(-3.0e38);
-    for (int i = 0; i < 4; ++i) {
-        vec2 corner = to_plane * (u_quad[i] - u_centre);
-        low = min(low, corner);
-        high = max(high, corner);
-    }
+    vec3 tangent = tangent_of(normal);
+    vec2 half_t = 0.5 * side * (to_plane * tangent);
+    vec2 half_b = 0.5 * side * (to_plane * cross(normal, tangent));
     vec2 centre = to_plane * (point - u_centre);
-    vec2 overlap = max(min(high, centre + 0.5 * side) - max(low, centre - 0.5 * side), 0.0);
-    return min(overlap.x * overlap.y / (side * side), 1.0);
+    vec2 poly[8], next[8];
+    poly[0] = centre - half_t - half_b;
+    poly[1] = centre + half_t - half_b;
+    poly[2] = centre + half_t + half_b;
+    poly[3] = centre - half_t + half_b;
+    int count = 4;
+    vec2 quad[4];
+    for (int i = 0; i < 4; ++i) quad[i] = to_plane * (u_quad[i] - u_centre);
+    float turn = sign(cross2(quad[1] - quad[0], quad[2] - quad[1]));
+    for (int edge = 0; edge < 4; ++edge) {   // clip to each edge of the quad (convex)
+        vec2 a = quad[edge], direction = quad[(edge + 1) % 4] - a;
+        int kept = 0;
+        for (int i = 0; i < count; ++i) {
+            vec2 p = poly[i], q = poly[(i + 1) % count];
+            float dp = turn * cross2(direction, p - a), dq = turn * cross2(direction, q - a);
+            if (dp >= 0.0) next[kept++] = p;
+            if ((dp >= 0.0) != (dq >= 0.0)) next[kept++] = p + (q - p) * (dp / (dp - dq));
+        }
+        count = kept;
+        for (int i = 0; i < count; ++i) poly[i] = next[i];
+    }
+    float twice_area = 0.0;
+    for (int i = 0; i < count; ++i) twice_area += cross2(poly[i], poly[(i + 1) % count]);
+    return min(0.5 * abs(twice_area) / max(4.0 * abs(cross2(half_t, half_b)), 1e-30), 1.0);
 }
 
 // A receiver facing the shooter across a gap under u_sandwich_gap of its texel, its sample
@@ -83,6 +102,6 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     float visible = visible_from_eye(point, normal, receiver_surface);
     if (visible <= 0.0) return vec3(0.0);
     float form_factor = near_side > 0.0 && sandwiched(from_shooter, height, normal, near_side)
-        ? covered_share(point, near_side) : polygon_form_factor(point, normal);
+        ? covered_share(point, normal, near_side) : polygon_form_factor(point, normal);
     return PI * u_radiance * form_factor * visible;
 }
