@@ -29,7 +29,7 @@ flat out vec3 g_face_normal;
 flat out float g_texel_size;      // world length of one texel edge
 flat out float g_area_per_texel;  // world area of one texel square on this triangle
 
-float cross2(vec2 a, vec2 b) { return a.x * b.y - a.y * b.x; }
+#include "plane2d.glsl"
 
 void main() {
     vec2 t0 = v[0].texel, t1 = v[1].texel, t2 = v[2].texel;

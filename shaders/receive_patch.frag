@@ -43,7 +43,7 @@ bool in_near_field(vec3 point, float texel_size) {
     return distance(point, u_centre) < reach;
 }
 
-float cross2(vec2 a, vec2 b) { return a.x * b.y - a.y * b.x; }
+#include "plane2d.glsl"
 
 // The share of a receiver's texel square (side 'side' around 'point', parallel to the shooter)
 // over the shooter's quad: its mean form factor as the gap between them goes to 0.

@@ -1,6 +1,6 @@
 // Clip the triangle g_texel[0..2] against the unit texel square at 'origin'.
 // Returns the covered area in texel units and the covered_centre of the covered part.
-float cross2(vec2 a, vec2 b) { return a.x * b.y - a.y * b.x; }
+#include "plane2d.glsl"
 
 float clip_triangle_to_texel(vec2 origin, out vec2 covered_centre) {
     vec2 poly[9];

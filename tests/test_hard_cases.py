@@ -59,7 +59,8 @@ def test_emitter_millimetres_above_a_receiver(ctx, gl_clean, projection, height)
     at_point = analytic.polygon_form_factors(position[near], up, emitter)
     # The mean over each texel's square (side: the root of its area, along x and y), from
     # 32 x 32 points.
-    side = np.sqrt(samples[0]["area"][samples[0]["occupied"]][floor][near])
+    areas = np.concatenate([s["area"][s["occupied"]] for s in samples])   # as occupied_texels
+    side = np.sqrt(areas[floor][near])
     steps = (np.arange(32) + 0.5) / 32 - 0.5
     grid = np.stack(np.meshgrid(steps, steps, indexing="ij"), axis=-1).reshape(-1, 2)
     spread = np.repeat(position[near], len(grid), axis=0)
