@@ -163,10 +163,13 @@ def _noise_and_magnitude(names, first, second):
 
 
 def _debiased(points, noise, magnitude):
-    for point in points:
+    """Adds the debiased errors; per-object errors stay on the last point only (where each
+    curve ends), not on every point."""
+    for index, point in enumerate(points):
         point["rms_debiased"] = math.sqrt(max(point["rms"] ** 2 - noise, 0.0))
         point["rel_rms_debiased"] = point["rms_debiased"] / magnitude
-        point.pop("objects", None)
+        if index < len(points) - 1:
+            point.pop("objects", None)
     return points
 
 

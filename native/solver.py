@@ -158,6 +158,7 @@ class _Shooter:
     radiance: np.ndarray        # leaving its front (every shooter is one-sided)
     unshot: np.ndarray          # (N, 4) float32: what this shot takes from each texel
     extent: tuple               # its surface along its frame's t and b (_surface_extent)
+    thin_gap: bool              # a receiver may face it across a thin gap (_thin_gap_near)
 
 
 @dataclass
@@ -375,7 +376,12 @@ class Solver:
                 "visibility_hemisphere_tessellated.geom"),
             "nonlinear": gl.program("visibility.vert", "visibility_nonlinear.frag",
                                     "visibility_nonlinear.geom"),
-            "patch": gl.program("fullscreen.vert", "receive_patch.frag"),
+            # Shots with no thin gap near them take the variant without the gap's code,
+            # which costs llvmpipe per fragment even where no texel takes it.
+            "patch": gl.program("fullscreen.vert", "receive_patch.frag",
+                                defines={"THIN_GAPS": 0}),
+            "patch_thin_gap": gl.program("fullscreen.vert", "receive_patch.frag",
+                                         defines={"THIN_GAPS": 1}),
             "light": gl.program("fullscreen.vert", "receive_light.frag"),
             "take": gl.program("take_unshot.vert", "take_unshot.frag"),
         }
@@ -383,7 +389,7 @@ class Solver:
             self._programs["count"] = gl.program("raster.vert", "shadow_count.frag", "raster.geom")
             self._programs["level"] = gl.program("raster.vert", "set_level.frag", "raster.geom")
         self._fullscreen = {name: gl.vertex_array(self._programs[name], [])
-                            for name in ("block", "argmax", "patch", "light")}
+                            for name in ("block", "argmax", "patch", "patch_thin_gap", "light")}
         self._set_constant_uniforms()
         self._albedo_textures = []
         for image in scene.albedo_textures:
@@ -433,6 +439,14 @@ class Solver:
         self._small_x = self._occluder_centres[self._small_occluders, 0]
         self._large_occluders = np.nonzero(~small)[0]
         self._crossing_planes = {}   # per shooting block region
+        # Receiving triangles' planes and bounds, to find the thin gaps next to a shooter.
+        corners = scene.vertices[scene.triangles[scene.receive]].astype(np.float64)
+        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        self._receiver_normals = normals / np.maximum(
+            np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+        self._receiver_offsets = (self._receiver_normals * corners[:, 0]).sum(axis=1)
+        self._receiver_low, self._receiver_high = corners.min(axis=1), corners.max(axis=1)
+        self._thin_gaps = {}         # per shooting region: whether a receiver faces it closely
         self._region_charts = {}     # per shooting block region: _region_charts
         initial = settings.subdivision_level if settings.subdivision == "REGULAR" else 0
         self._caster_levels = np.full(len(positions), initial, dtype=np.int32)
@@ -480,7 +494,8 @@ class Solver:
             "nonlinear": {"u_resolution": float(self._map_size)},
             "hemisphere": {"u_resolution": float(self._map_size)},
             "hemisphere_tessellated": {"u_resolution": float(self._map_size)},
-            "patch": {**receivers, "u_sandwich_gap": SANDWICH_GAP},
+            "patch": receivers,
+            "patch_thin_gap": {**receivers, "u_sandwich_gap": SANDWICH_GAP},
             "light": receivers,
             "take": {"u_atlas_size": size},
             "count": {**receivers, "u_atlas_size": size},
@@ -1014,7 +1029,8 @@ class Solver:
             page=page, texels=texels + (x0, y0),
             centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
             radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
-            extent=self._surface_extent(int(surface[strongest]), centre, t, b))
+            extent=self._surface_extent(int(surface[strongest]), centre, t, b),
+            thin_gap=self._thin_gap_near(region, position, normal, texel_size))
 
     def _surface_extent(self, surface, centre, t, b):
         """The rectangle (u min, u max, v min, v max) along t and b from ``centre`` that holds
@@ -1029,6 +1045,28 @@ class Solver:
         offsets = points - centre
         u, v = offsets @ t, offsets @ b
         return (float(u.min()), float(u.max()), float(v.min()), float(v.max()))
+
+    def _thin_gap_near(self, region, position, normal, texel_size):
+        """Whether a receiving triangle faces some texel of the region across a gap under
+        twice SANDWICH_GAP of the largest texel (receivers' texels differ a little in size),
+        within the near field's reach: a superset of the receivers that receive_patch.frag
+        treats as across a thin gap. Texels do not move, so once per region."""
+        thin = self._thin_gaps.get(region)
+        if thin is None:
+            occupied = position[:, 3] > 0.0
+            points, normals = position[occupied, :3], normal[occupied]
+            largest = float(texel_size[occupied].max()) if occupied.any() else 0.0
+            gap, reach = 2.0 * SANDWICH_GAP * largest, 3.0 * largest
+            near = np.nonzero((self._receiver_low <= points.max(axis=0) + reach).all(axis=1)
+                              & (self._receiver_high >= points.min(axis=0) - reach).all(axis=1))[0]
+            facing = self._receiver_normals[near] @ normals.T < -0.99          # (near, points)
+            # How far in front of each texel each plane lies: a sheet's own back face, at 0,
+            # gets nothing from its front.
+            heights = (self._receiver_normals[near] @ points.T
+                       - self._receiver_offsets[near, None])
+            thin = self._thin_gaps[region] = bool(
+                (facing & (heights > self._epsilon) & (heights < gap)).any())
+        return thin
 
     def _same_side_as(self, region, strongest, members, position, texel_size):
         """The members on the strongest texel's side of every occluder whose plane runs
@@ -1081,12 +1119,13 @@ class Solver:
         self._timed("visibility", self._render_visibility, eye, shooter.frame, 5, True, False)
         self._maybe_subdivide(float(np.mean(shot_power)), True)
         self._take_unshot(shooter)
-        program = self._programs["patch"]
+        kind = "patch_thin_gap" if shooter.thin_gap else "patch"
+        program = self._programs[kind]
         _set(program, "u_quad", [tuple(corner) for corner in shooter.quad])
         _set(program, "u_centre", tuple(shooter.centre))
         _set(program, "u_radiance", tuple(shooter.radiance))
         _set(program, "u_surface_extent", shooter.extent)
-        self._timed("receivers", self._update_receivers, "patch")
+        self._timed("receivers", self._update_receivers, kind)
 
     def _shoot_light(self, light):
         program = self._programs["light"]

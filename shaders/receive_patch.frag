@@ -2,6 +2,8 @@
 // Receiver update for a shooting patch: every receiving texel visible from the shooter gains
 // irradiance pi * L * F, with F the exact point-to-polygon form factor (Lambert's formula)
 // of the shooter's quad clipped to the receiver's horizon: bounded however close they are.
+// THIN_GAPS (0 or 1, defined by the solver): whether receivers across a thin gap gather the
+// share of their square over the shooter (sandwiched()).
 #include "projection.glsl"
 #include "visibility_test.glsl"
 #include "receiver_common.glsl"
@@ -101,7 +103,11 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     if (height <= u_epsilon || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
     float visible = visible_from_eye(point, normal, receiver_surface);
     if (visible <= 0.0) return vec3(0.0);
+#if THIN_GAPS
     float form_factor = near_side > 0.0 && sandwiched(from_shooter, height, normal, near_side)
         ? covered_share(point, normal, near_side) : polygon_form_factor(point, normal);
+#else
+    float form_factor = polygon_form_factor(point, normal);
+#endif
     return PI * u_radiance * form_factor * visible;
 }
