@@ -419,33 +419,12 @@ class Solver:
         scene_content = [(self._scene_vbo, "3f", "in_position"), (surface_vbo, "1f", "in_surface")]
         self._visibility_vaos = {name: gl.vertex_array(self._programs[name], scene_content)
                                  for name in ("visibility", "hemisphere", "nonlinear")}
-        # Occluders' planes and bounds, to keep a shooter on one side of what crosses it.
-        corners = positions.astype(np.float64)
-        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        self._occluder_normals = normals / np.maximum(
-            np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
-        self._occluder_offsets = (self._occluder_normals * corners[:, 0]).sum(axis=1)
-        self._occluder_low, self._occluder_high = corners.min(axis=1), corners.max(axis=1)
-        # Caster subdivision level per occluder corner, for the tessellating projection.
-        self._occluder_centres = positions.mean(axis=1).astype(np.float64)
-        self._occluder_radii = np.linalg.norm(positions - self._occluder_centres[:, None],
-                                              axis=2).max(axis=1)
-        # Occluders near a block are looked up among the smaller 95 % sorted by x, plus the
-        # largest 5 % always: a shot then tests hundreds of triangles, not the whole scene.
-        self._small_reach = float(np.quantile(self._occluder_radii, 0.95))
-        small = self._occluder_radii <= self._small_reach
-        order = np.argsort(self._occluder_centres[small, 0])
-        self._small_occluders = np.nonzero(small)[0][order]
-        self._small_x = self._occluder_centres[self._small_occluders, 0]
-        self._large_occluders = np.nonzero(~small)[0]
+        # Occluders' planes, to keep a shooter on one side of what crosses it; receivers', to
+        # find the thin gaps next to a shooter.
+        self._occluders = _TrianglePlanes(positions.astype(np.float64))
+        self._receivers = _TrianglePlanes(
+            scene.vertices[scene.triangles[scene.receive]].astype(np.float64))
         self._crossing_planes = {}   # per shooting block region
-        # Receiving triangles' planes and bounds, to find the thin gaps next to a shooter.
-        corners = scene.vertices[scene.triangles[scene.receive]].astype(np.float64)
-        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        self._receiver_normals = normals / np.maximum(
-            np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
-        self._receiver_offsets = (self._receiver_normals * corners[:, 0]).sum(axis=1)
-        self._receiver_low, self._receiver_high = corners.min(axis=1), corners.max(axis=1)
         self._thin_gaps = {}         # per shooting region: whether a receiver faces it closely
         self._region_charts = {}     # per shooting block region: _region_charts
         initial = settings.subdivision_level if settings.subdivision == "REGULAR" else 0
@@ -771,12 +750,13 @@ class Solver:
         axis = centres - eye
         length = np.linalg.norm(axis, axis=1)
         axis /= np.maximum(length, 1e-30)[:, None]
-        to_caster = self._occluder_centres[None, :, :] - eye                    # (1, O, 3)
+        to_caster = self._occluders.centres[None, :, :] - eye                    # (1, O, 3)
         along = (to_caster * axis[:, None, :]).sum(axis=2)                       # (R, O)
         across = np.linalg.norm(to_caster - along[..., None] * axis[:, None, :], axis=2)
         cone = radii[:, None] * np.clip(along, 0.0, None) / np.maximum(length, 1e-30)[:, None]
-        meets = ((along + self._occluder_radii > 0.0) & (along - self._occluder_radii < length[:, None])
-                 & (across <= cone + self._occluder_radii))
+        radii = self._occluders.radii
+        meets = ((along + radii > 0.0) & (along - radii < length[:, None])
+                 & (across <= cone + radii))
         wanted = np.max(np.where(meets, levels[:, None], 0), axis=0)
         raised = wanted > self._caster_levels
         if raised.any():
@@ -1057,13 +1037,12 @@ class Solver:
             points, normals = position[occupied, :3], normal[occupied]
             largest = float(texel_size[occupied].max()) if occupied.any() else 0.0
             gap, reach = 2.0 * SANDWICH_GAP * largest, 3.0 * largest
-            near = np.nonzero((self._receiver_low <= points.max(axis=0) + reach).all(axis=1)
-                              & (self._receiver_high >= points.min(axis=0) - reach).all(axis=1))[0]
-            facing = self._receiver_normals[near] @ normals.T < -0.99          # (near, points)
+            receivers = self._receivers
+            near = receivers.within(points.min(axis=0) - reach, points.max(axis=0) + reach)
+            facing = receivers.normals[near] @ normals.T < -0.99               # (near, points)
             # How far in front of each texel each plane lies: a sheet's own back face, at 0,
             # gets nothing from its front.
-            heights = (self._receiver_normals[near] @ points.T
-                       - self._receiver_offsets[near, None])
+            heights = receivers.normals[near] @ points.T - receivers.offsets[near, None]
             thin = self._thin_gaps[region] = bool(
                 (facing & (heights > self._epsilon) & (heights < gap)).any())
         return thin
@@ -1086,20 +1065,12 @@ class Solver:
         own_side = np.sign(points[strongest] @ normals.T - offsets)
         return members[(sides * own_side >= -CROSSING_MARGIN * texel_size).all(axis=1)]
 
-    def _occluders_within(self, low, high):
-        """The occluders whose bounds meet the box from ``low`` to ``high``."""
-        first, last = np.searchsorted(self._small_x, [low[0] - self._small_reach,
-                                                      high[0] + self._small_reach])
-        candidates = np.concatenate([self._small_occluders[first:last], self._large_occluders])
-        return candidates[(self._occluder_low[candidates] <= high).all(axis=1)
-                          & (self._occluder_high[candidates] >= low).all(axis=1)]
-
     def _planes_crossing(self, points, texel_size):
         """Planes (normals, offsets) of the occluders near ``points`` that have some of them
         on each side."""
-        near = self._occluders_within(points.min(axis=0) - texel_size,
-                                      points.max(axis=0) + texel_size)
-        normals, offsets = self._occluder_normals[near], self._occluder_offsets[near]
+        occluders = self._occluders
+        near = occluders.within(points.min(axis=0) - texel_size, points.max(axis=0) + texel_size)
+        normals, offsets = occluders.normals[near], occluders.offsets[near]
         sides = points @ normals.T - offsets
         margin = CROSSING_MARGIN * texel_size
         crossing = (sides.max(axis=0) > margin) & (sides.min(axis=0) < -margin)
@@ -1273,6 +1244,33 @@ class Solver:
         finally:
             self._finish()
             self.timings[phase] += time.perf_counter() - start
+
+
+class _TrianglePlanes:
+    """Planes and bounds of triangles ((T, 3, 3) corners), and which of them meet a box."""
+
+    def __init__(self, corners):
+        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        self.normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+        self.offsets = (self.normals * corners[:, 0]).sum(axis=1)
+        self.low, self.high = corners.min(axis=1), corners.max(axis=1)
+        self.centres = corners.mean(axis=1)
+        self.radii = np.linalg.norm(corners - self.centres[:, None], axis=2).max(axis=1)
+        # Looked up among the smaller 95 % sorted by x, plus the largest 5 % always: a lookup
+        # then tests hundreds of triangles, not the whole scene.
+        self._reach = float(np.quantile(self.radii, 0.95)) if len(self.radii) else 0.0
+        small = self.radii <= self._reach
+        self._small = np.nonzero(small)[0][np.argsort(self.centres[small, 0])]
+        self._small_x = self.centres[self._small, 0]
+        self._large = np.nonzero(~small)[0]
+
+    def within(self, low, high):
+        """The triangles whose bounds meet the box from ``low`` to ``high``."""
+        first, last = np.searchsorted(self._small_x, [low[0] - self._reach,
+                                                      high[0] + self._reach])
+        candidates = np.concatenate([self._small[first:last], self._large])
+        return candidates[(self.low[candidates] <= high).all(axis=1)
+                          & (self.high[candidates] >= low).all(axis=1)]
 
 
 def smooth_surfaces(scene):

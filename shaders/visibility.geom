@@ -1,8 +1,11 @@
 #version 410
-// All faces of the visibility cube in one pass: one geometry-shader invocation per face,
-// each routed to its layer. A front-only shooter clips geometry behind its plane.
-layout(triangles, invocations = 6) in;
-layout(triangle_strip, max_vertices = 3) out;
+// All faces of the visibility cube in one pass, each routed to its layer: one invocation per
+// triangle that projects it once and emits it to the faces it reaches. A front-only shooter
+// clips geometry behind its plane. (llvmpipe runs geometry shaders on one thread: six
+// invocations per triangle, one per face, made this pass most of a shot on scenes of many
+// triangles.)
+layout(triangles) in;
+layout(triangle_strip, max_vertices = 18) out;
 
 uniform int u_face_count;
 uniform int u_clip_below;
@@ -17,19 +20,35 @@ flat out int g_faces_away;
 
 #include "projection.glsl"
 
-void main() {
-    if (gl_InvocationID >= u_face_count) return;
-    bool away = faces_away_from_eye(to_local(v_world[0]), to_local(v_world[1]),
-                                    to_local(v_world[2]));
-    for (int i = 0; i < 3; ++i) {
-        vec3 local = to_local(v_world[i]);
-        g_local = local;
-        g_surface = v_surface[0];
-        g_faces_away = int(away);
-        gl_Position = face_clip(local, gl_InvocationID);
-        gl_ClipDistance[0] = u_clip_below != 0 ? local.z : 1.0;
-        gl_Layer = gl_InvocationID;
-        EmitVertex();
+// Whether the triangle lies wholly outside one plane of a face's view volume, where clipping
+// would leave nothing of it.
+bool outside(vec4 clip[3]) {
+    for (int axis = 0; axis < 3; ++axis) {
+        if (clip[0][axis] > clip[0].w && clip[1][axis] > clip[1].w && clip[2][axis] > clip[2].w)
+            return true;
+        if (clip[0][axis] < -clip[0].w && clip[1][axis] < -clip[1].w
+            && clip[2][axis] < -clip[2].w) return true;
     }
-    EndPrimitive();
+    return false;
+}
+
+void main() {
+    vec3 local[3] = vec3[3](to_local(v_world[0]), to_local(v_world[1]), to_local(v_world[2]));
+    if (u_clip_below != 0 && local[0].z < 0.0 && local[1].z < 0.0 && local[2].z < 0.0) return;
+    bool away = faces_away_from_eye(local[0], local[1], local[2]);
+    for (int face = 0; face < u_face_count; ++face) {
+        vec4 clip[3];
+        for (int i = 0; i < 3; ++i) clip[i] = face_clip(local[i], face);
+        if (outside(clip)) continue;
+        for (int i = 0; i < 3; ++i) {
+            g_local = local[i];
+            g_surface = v_surface[0];
+            g_faces_away = int(away);
+            gl_Position = clip[i];
+            gl_ClipDistance[0] = u_clip_below != 0 ? local[i].z : 1.0;
+            gl_Layer = face;
+            EmitVertex();
+        }
+        EndPrimitive();
+    }
 }

@@ -2,8 +2,8 @@
 // Routes each triangle, projected by the vertex shader, to the hemisphere layers drawn
 // (u_face_count: 1 for a one-sided shooter, 2 for a two-sided one or a point light), clipped to
 // the hemisphere.
-layout(triangles, invocations = 2) in;
-layout(triangle_strip, max_vertices = 3) out;
+layout(triangles) in;  // one invocation draws every layer (see visibility.geom)
+layout(triangle_strip, max_vertices = 6) out;
 
 uniform int u_face_count;
 
@@ -22,9 +22,8 @@ flat out int g_faces_away;
 
 #include "visibility_store.glsl"
 
-void main() {
-    int side = gl_InvocationID;
-    if (side >= u_face_count) return;
+// The triangle on hemisphere 'side'.
+void draw(int side) {
     // A triangle whose plane passes through the eye covers no solid angle, but its corners
     // would span a chord of the disc.
     vec3 n = cross(v_local[1] - v_local[0], v_local[2] - v_local[0]);
@@ -43,4 +42,8 @@ void main() {
         EmitVertex();
     }
     EndPrimitive();
+}
+
+void main() {
+    for (int side = 0; side < u_face_count; ++side) draw(side);
 }

@@ -3,8 +3,8 @@
 // around the triangle's true (curved) stereographic image. The triangle is clipped to the
 // hemisphere; each edge of what is left is a great-circle arc, sampled along the arc to bound
 // it, and the bounding box is emitted with the triangle's corners for the fragment test.
-layout(triangles, invocations = 2) in;
-layout(triangle_strip, max_vertices = 4) out;
+layout(triangles) in;  // one invocation draws every layer (see visibility.geom)
+layout(triangle_strip, max_vertices = 8) out;
 
 uniform int u_face_count;    // hemispheres drawn: 1 (front) or 2 (front and back)
 uniform float u_resolution;  // map side in texels
@@ -33,9 +33,8 @@ void bound_arc(inout vec4 box, vec3 a, vec3 b) {
     }
 }
 
-void main() {
-    int side = gl_InvocationID;
-    if (side >= u_face_count) return;
+// The triangle on hemisphere 'side'.
+void draw(int side) {
     bool away = faces_away_from_eye(to_local(v_world[0]), to_local(v_world[1]),
                                     to_local(v_world[2]));
     vec3 c[3];
@@ -73,4 +72,8 @@ void main() {
         EmitVertex();
     }
     EndPrimitive();
+}
+
+void main() {
+    for (int side = 0; side < u_face_count; ++side) draw(side);
 }
