@@ -52,14 +52,21 @@ bench: $(VENV)/.bench
 	$(BIN)/python bench/plot.py
 
 # Time to 5 %, 2 % and 1 % relative RMS against two averaged Cycles references, Luxel and
-# Cycles on this machine; the saved references let bench/bench_gpu_curve.py measure Luxel on a
-# GPU machine without Blender. (Office: Luxel to 5 % unshot only, ~150 s on llvmpipe.)
+# Cycles on this machine, for the four sample scenes (about 25 min on 2 cores with llvmpipe);
+# the saved references let bench/bench_gpu_curve.py measure Luxel on a GPU machine without
+# Blender. (Office: Luxel to 5 % unshot only.)
 bench-equal-error: $(VENV)/.bench
 	mkdir -p out
-	$(BIN)/python bench/bench_equal_error.py --scene cornell_box --density 60 --samples 2048 \
+	$(BIN)/python bench/bench_equal_error.py --scene cornell_box --density 60 --samples 1024 \
 		--exclude ceiling --save-reference out/reference-cornell_box.npz \
 		--json bench/results/equal-error-cornell_box-$(DEVICE).json
-	$(BIN)/python bench/bench_equal_error.py --scene office --density 4 --samples 256 \
+	$(BIN)/python bench/bench_equal_error.py --scene temple --density 2 --samples 512 \
+		--save-reference out/reference-temple.npz \
+		--json bench/results/equal-error-temple-$(DEVICE).json
+	$(BIN)/python bench/bench_equal_error.py --scene living --density 8 --samples 512 --exclude ceiling \
+		--save-reference out/reference-living.npz \
+		--json bench/results/equal-error-living-$(DEVICE).json
+	$(BIN)/python bench/bench_equal_error.py --scene office --density 4 --samples 512 \
 		--threshold 0.05 --exclude ceiling --save-reference out/reference-office.npz \
 		--json bench/results/equal-error-office-$(DEVICE).json
 
