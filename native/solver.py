@@ -1035,7 +1035,7 @@ class Solver:
         if thin is None:
             occupied = position[:, 3] > 0.0
             points, normals = position[occupied, :3], normal[occupied]
-            largest = float(texel_size[occupied].max()) if occupied.any() else 0.0
+            largest = float(texel_size[occupied].max())   # a shooter has its strongest texel
             gap, reach = 2.0 * SANDWICH_GAP * largest, 3.0 * largest
             receivers = self._receivers
             near = receivers.within(points.min(axis=0) - reach, points.max(axis=0) + reach)

@@ -1,9 +1,9 @@
 #version 410
 // All faces of the visibility cube in one pass, each routed to its layer: one invocation per
 // triangle that projects it once and emits it to the faces it reaches. A front-only shooter
-// clips geometry behind its plane. (llvmpipe runs geometry shaders on one thread: six
-// invocations per triangle, one per face, made this pass most of a shot on scenes of many
-// triangles.)
+// clips geometry behind its plane. (llvmpipe runs geometry shaders on the calling thread,
+// before its threaded rasteriser: six invocations per triangle, one per face, made this pass
+// most of a shot on scenes of many triangles.)
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 18) out;
 
