@@ -86,7 +86,8 @@ class LuxelSceneSettings(bpy.types.PropertyGroup):
                            description="Stop after this many shots")
     threshold: FloatProperty(name="Threshold", default=_DEFAULTS.threshold, min=0.0, max=0.99,
                              precision=4, description="Stop when this fraction of the emitted "
-                             "power is left unshot")
+                             "power is left unshot (sunlight that misses the scene does not "
+                             "count)")
     hemicube_resolution: IntProperty(name="Hemicube Resolution",
                                      default=_DEFAULTS.hemicube_resolution, min=8, max=4096,
                                      description="Texels on a side of each hemicube face; the "

@@ -77,6 +77,7 @@ class Settings:
     hemicube_resolution: int = 128   # texels on a side of each visibility face
     shoot_level: int = 2             # mip level shot from: a shooter spans 2^level texels
     threshold: float = 0.01          # stop when this fraction of the emitted power is unshot
+                                     # (sunlight that hits nothing does not count)
     max_shots: int = 10000           # stop after this many shots
     memory_limit: int = 4 << 30      # bytes of GPU memory Luxel may use
     sky_directions: int = 256        # suns that stand in for a uniform sky (world colour)
@@ -453,6 +454,10 @@ class Solver:
         self._emitted = self._emitted_maps + sum((self._light_power(l) for l in self._pending),
                                                  np.zeros(3))
         self._emitted_scalar = float(np.mean(self._emitted))
+        # A sun shoots over the scene's bounding square: what misses the scene (three times
+        # what lands, on the temple's ground) is emitted for the ledger but not left for the
+        # threshold to wait on.
+        self._sunlight_missed = 0.0
 
     def _set_constant_uniforms(self):
         """Uniforms that stay the same for the whole bake (texture units among them)."""
@@ -831,7 +836,8 @@ class Solver:
         pending lights, or as many patches. False once converged."""
         candidates, total = self._timed("selection", self._select)
         pending = sum(float(np.mean(self._light_power(light))) for light in self._pending)
-        self._unshot_fraction = (total + pending) / self._emitted_scalar
+        self._unshot_fraction = (total + pending) / max(
+            self._emitted_scalar - self._sunlight_missed, 1e-30)
         self.converged = (self._unshot_fraction <= self.settings.threshold
                           or (not self._pending and not candidates))
         if self.converged:
@@ -1108,6 +1114,8 @@ class Solver:
             _set(program, "u_light_kind", 2)
             _set(program, "u_light_value", tuple(light.irradiance()))
             self._timed("visibility", self._render_visibility, eye, frame, 1, False, True)
+            self._sunlight_missed += (float(np.mean(self._light_power(light)))
+                                      * (1.0 - self._covered_share()))
             self._maybe_subdivide(float(np.mean(self._light_power(light))), False)
         else:
             eye = np.asarray(light.position, dtype=np.float64)
@@ -1169,6 +1177,13 @@ class Solver:
         ctx.disable(moderngl.BLEND)
         if clip:
             ctx.disable_direct(0x3000)
+
+    def _covered_share(self):
+        """The share of the first visibility map's texels that something was drawn into (the
+        sun's window the scene covers)."""
+        texels = self._map_size ** 2
+        distances = np.frombuffer(self._visibility.read(), dtype="f4")[:2 * texels:2]
+        return float(np.count_nonzero(distances < 1e38)) / texels
 
     def _take_unshot(self, shooter):
         """Subtract what the shot took from its texels' unshot energy (exactly the values it

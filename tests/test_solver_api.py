@@ -199,6 +199,32 @@ def test_several_atlas_pages_conserve_energy(ctx, gl_clean):
         solver.release()
 
 
+
+@pytest.mark.parametrize("projection", ["HEMICUBE", "NONLINEAR"])
+def test_unshot_fraction_counts_the_sunlight_that_lands(ctx, gl_clean, projection):
+    """A sun lights a lone plane of albedo rho; its window (the scene's bounding square) is
+    twice the plane's area. After the sun's shot the plane holds rho of the light that landed
+    unshot, so the unshot fraction is rho: the light that missed the plane is not waited on
+    (it read 0.23 when the whole window counted)."""
+    albedo = 0.5
+    builder = SceneBuilder().quad("plane", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)],
+                                  (albedo,) * 3)
+    sun = SunLight(direction=(math.sin(0.4), 0.0, -math.cos(0.4)), strength=2.0)
+    solver = Solver(builder.build([sun]), Settings(texel_density=16, projection=projection,
+                                                   threshold=0.0), ctx=ctx)
+    try:
+        solver.step()   # the sun
+        solver.step()   # measures the unshot power before the plane's first shot
+        fraction = solver.progress.unshot_fraction
+        ledger = solver.ledger()
+    finally:
+        solver.release()
+    assert ctx.error == "GL_NO_ERROR"
+    assert abs(fraction - albedo) < 0.02 * albedo
+    # The ledger still counts the whole window as emitted, the miss as escaped.
+    assert ledger.imbalance() < 1e-4
+    assert ledger.escaped[0] > 0.4 * ledger.emitted[0]
+
 def test_albedo_texture_is_sampled_through_its_uvs(ctx, gl_clean):
     """Under a sun, a receiver textured half dark, half bright reflects rho(u) S / pi."""
     builder = SceneBuilder().quad("plane", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)],
