@@ -159,7 +159,7 @@ class _Shooter:
     radiance: np.ndarray        # leaving its front (every shooter is one-sided)
     unshot: np.ndarray          # (N, 4) float32: what this shot takes from each texel
     extent: tuple               # its surface along its frame's t and b (_surface_extent)
-    thin_gap: bool              # a receiver may face it across a thin gap (_thin_gap_near)
+                                # when a receiver may face it across a thin gap, else None
 
 
 @dataclass
@@ -1015,8 +1015,8 @@ class Solver:
             page=page, texels=texels + (x0, y0),
             centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
             radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
-            extent=self._surface_extent(int(surface[strongest]), centre, t, b),
-            thin_gap=self._thin_gap_near(region, position, normal, texel_size))
+            extent=(self._surface_extent(int(surface[strongest]), centre, t, b)
+                    if self._thin_gap_near(region, position, normal, texel_size) else None))
 
     def _surface_extent(self, surface, centre, t, b):
         """The rectangle (u min, u max, v min, v max) along t and b from ``centre`` that holds
@@ -1096,12 +1096,13 @@ class Solver:
         self._timed("visibility", self._render_visibility, eye, shooter.frame, 5, True, False)
         self._maybe_subdivide(float(np.mean(shot_power)), True)
         self._take_unshot(shooter)
-        kind = "patch_thin_gap" if shooter.thin_gap else "patch"
+        kind = "patch" if shooter.extent is None else "patch_thin_gap"
         program = self._programs[kind]
         _set(program, "u_quad", [tuple(corner) for corner in shooter.quad])
         _set(program, "u_centre", tuple(shooter.centre))
         _set(program, "u_radiance", tuple(shooter.radiance))
-        _set(program, "u_surface_extent", shooter.extent)
+        if shooter.extent is not None:
+            _set(program, "u_surface_extent", shooter.extent)
         self._timed("receivers", self._update_receivers, kind)
 
     def _shoot_light(self, light):
