@@ -1107,6 +1107,7 @@ class Solver:
 
     def _shoot_light(self, light):
         program = self._programs["light"]
+        power = self._light_power(light)
         if isinstance(light, SunLight):
             n = np.asarray(light.direction, dtype=np.float64)
             n /= np.linalg.norm(n)
@@ -1115,9 +1116,7 @@ class Solver:
             _set(program, "u_light_kind", 2)
             _set(program, "u_light_value", tuple(light.irradiance()))
             self._timed("visibility", self._render_visibility, eye, frame, 1, False, True)
-            self._sunlight_missed += (float(np.mean(self._light_power(light)))
-                                      * (1.0 - self._covered_share()))
-            self._maybe_subdivide(float(np.mean(self._light_power(light))), False)
+            self._sunlight_missed += float(np.mean(power)) * (1.0 - self._covered_share())
         else:
             eye = np.asarray(light.position, dtype=np.float64)
             _set(program, "u_light_kind", 0)
@@ -1129,8 +1128,8 @@ class Solver:
                 _set(program, "u_spot_cos_half", light.cos_half_angle())
                 _set(program, "u_spot_smooth", light.smooth_width())
             self._timed("visibility", self._render_visibility, eye, np.eye(3), 6, False, False)
-            self._maybe_subdivide(float(np.mean(self._light_power(light))), False)
-        self._shot_power = self._shot_power + self._light_power(light)
+        self._maybe_subdivide(float(np.mean(power)), False)
+        self._shot_power = self._shot_power + power
         self._timed("receivers", self._update_receivers, "light")
 
     def _light_power(self, light):

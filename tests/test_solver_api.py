@@ -199,7 +199,6 @@ def test_several_atlas_pages_conserve_energy(ctx, gl_clean):
         solver.release()
 
 
-
 @pytest.mark.parametrize("projection", ["HEMICUBE", "NONLINEAR"])
 def test_unshot_fraction_counts_the_sunlight_that_lands(ctx, gl_clean, projection):
     """A sun lights a lone plane of albedo rho; its window (the scene's bounding square) is
@@ -224,6 +223,7 @@ def test_unshot_fraction_counts_the_sunlight_that_lands(ctx, gl_clean, projectio
     # The ledger still counts the whole window as emitted, the miss as escaped.
     assert ledger.imbalance() < 1e-4
     assert ledger.escaped[0] > 0.4 * ledger.emitted[0]
+
 
 def test_albedo_texture_is_sampled_through_its_uvs(ctx, gl_clean):
     """Under a sun, a receiver textured half dark, half bright reflects rho(u) S / pi."""
