@@ -160,6 +160,26 @@ class _Shooter:
     unshot: np.ndarray          # (N, 4) float32: what this shot takes from each texel
     extent: tuple               # its surface along its frame's t and b (_surface_extent)
                                 # when a receiver may face it across a thin gap, else None
+    albedo: np.ndarray          # its texels' mean albedo: what a thin gap's far side bounces
+
+
+@dataclass
+class _Texels:
+    """A page's receiving texels as the CPU holds them, for the thin gaps (_close_thin_gap),
+    sorted by x for the lookup around a shooter."""
+    xy: np.ndarray              # (N, 2) texel coordinates
+    position: np.ndarray        # (N, 3) sample points
+    normal: np.ndarray          # (N, 3)
+    side: np.ndarray            # (N,) the root of the area, as the shaders take it
+    area: np.ndarray            # (N,) float32, as the maps hold it
+    albedo: np.ndarray          # (N, 3) float32, as the maps hold it
+
+    def near(self, centre, reach):
+        """The indices of the texels whose x lies within ``reach`` and two of their sides of
+        the centre's (in_near_field())."""
+        radius = reach + 2.0 * float(self.side.max(initial=0.0))
+        first, last = np.searchsorted(self.position[:, 0], [centre[0] - radius, centre[0] + radius])
+        return np.arange(first, last)
 
 
 @dataclass
@@ -267,8 +287,11 @@ class Solver:
         """Energy ledger from the GPU maps (read back, summed in double precision)."""
         with using(self.ctx):
             totals = self._map_totals()
-            return Ledger(self._emitted.copy(), totals["absorbed"],
-                          self._shot_power - totals["received"], totals["unshot"])
+            # Thin gaps' bounces (_close_thin_gap): the receivers' maps hold what came back to
+            # them, and the shooters' surfaces absorbed light their maps do not hold.
+            received = totals["received"] - self._gap_returned
+            return Ledger(self._emitted.copy(), totals["absorbed"] + self._gap_absorbed_behind,
+                          self._shot_power - received, totals["unshot"])
 
     def ambient_radiance(self):
         """The unshot remainder as uniform radiance (Cohen et al. 1988): the area-weighted
@@ -447,6 +470,12 @@ class Solver:
         self._queue = []
         self._taken_vao = gl.vertex_array(self._programs["take"],
                                           [(self._taken_vbo, "2f 4f", "in_texel", "in_taken")])
+        self._gap_vbo = gl.buffer(reserve=64 * 24)   # grows with the texels of a thin gap
+        self._gap_vao = gl.vertex_array(self._programs["take"],
+                                        [(self._gap_vbo, "2f 4f", "in_texel", "in_taken")])
+        self._receiving_texels = None   # per page, _Texels, read at the first thin gap
+        self._gap_returned = np.zeros(3)         # W that thin gaps bounced back to receivers
+        self._gap_absorbed_behind = np.zeros(3)  # W the shooters' surfaces absorbed there
 
         self._measure_emission()
         lights = list(scene.lights) + sky_suns(scene.sky, settings.sky_directions)
@@ -926,7 +955,7 @@ class Solver:
         rows = [data[start:start + components * count].reshape(count, components)
                 for start, count, components in views]
         return [(position, _decode_normals(normal), unshot,
-                 np.floor(material[:, 3] * 65535.0 + 0.5))   # decode_surface()
+                 np.floor(material[:, 3] * 65535.0 + 0.5), material[:, :3])   # decode_surface()
                 for position, normal, unshot, material in zip(*(rows[i::4] for i in range(4)))]
 
     def _block_region(self, page_index, block, power):
@@ -981,7 +1010,7 @@ class Solver:
         page_index, x0, y0, size = region
         page = self._pages[page_index]
         width = min(size, self.atlas.width - x0)
-        position, normal, unshot, surface = maps
+        position, normal, unshot, surface, albedo = maps
         area, radiance, texel_size = position[:, 3], unshot[:, :3], unshot[:, 3]
         power = radiance.mean(axis=1) * area
         strongest = int(np.argmax(power))
@@ -1016,7 +1045,8 @@ class Solver:
             centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
             radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
             extent=(self._surface_extent(int(surface[strongest]), centre, t, b)
-                    if self._thin_gap_near(region, position, normal, texel_size) else None))
+                    if self._thin_gap_near(region, position, normal, texel_size) else None),
+            albedo=(albedo[members] * weights).sum(axis=0) / total_area)
 
     def _surface_extent(self, surface, centre, t, b):
         """The rectangle (u min, u max, v min, v max) along t and b from ``centre`` that holds
@@ -1104,6 +1134,81 @@ class Solver:
         if shooter.extent is not None:
             _set(program, "u_surface_extent", shooter.extent)
         self._timed("receivers", self._update_receivers, kind)
+        if shooter.extent is not None:
+            self._timed("receivers", self._close_thin_gap, shooter)
+
+    def _close_thin_gap(self, shooter):
+        """Light the receivers facing the shooter across a thin gap, their sample points over
+        its surface (the texels the receiver pass left out: receive_patch.frag, sandwiched()),
+        with all the gap's bounces at once. Between facing surfaces far closer than a texel,
+        light shot at a point bounces between the two at that point until absorbed: a receiver
+        of albedo rho_r gets E / (1 - rho_r rho_s) from a shooter of albedo rho_s (E: the
+        share of its square under the shooter's quad, times pi L) and reflects none of it
+        out; the shooter's surface absorbs (1 - rho_s) of what it reflects."""
+        t, b, n = shooter.frame.T
+        centre = shooter.centre
+        quad = np.asarray(shooter.quad, dtype=np.float64) - centre
+        quad = np.stack([quad @ t, quad @ b], axis=1)
+        reach = 0.5 * float(np.linalg.norm(quad[2] - quad[0]))   # in_near_field()
+        u_min, u_max, v_min, v_max = shooter.extent
+        reflected = np.zeros(3)
+        for page, texels in zip(self._pages, self._texels_on_pages()):
+            near = texels.near(centre, reach)
+            offsets = texels.position[near] - centre
+            height, u, v = offsets @ n, offsets @ t, offsets @ b
+            side, normal = texels.side[near], texels.normal[near]
+            inside = np.nonzero(
+                (height > self._epsilon) & (height < SANDWICH_GAP * side)
+                & ((normal * offsets).sum(axis=1) < 0.0) & (normal @ n < -0.99)
+                & (np.linalg.norm(offsets, axis=1) < reach + 2.0 * side)
+                & (u >= u_min) & (u <= u_max) & (v >= v_min) & (v <= v_max))[0]
+            if not len(inside):
+                continue
+            chosen = near[inside]
+            shares = np.array([_square_share_over(np.array([u[i], v[i]]), normal[i], side[i],
+                                                  t, b, quad) for i in inside])
+            albedo = texels.albedo[chosen].astype(np.float64)
+            gained = (math.pi * shooter.radiance * shares[:, None]
+                      / (1.0 - albedo * shooter.albedo)).astype(np.float32)
+            self._add_irradiance(page, texels.xy[chosen], gained)
+            reflected += (albedo * gained * texels.area[chosen, None]).sum(axis=0)
+        self._gap_returned = self._gap_returned + shooter.albedo * reflected
+        self._gap_absorbed_behind = self._gap_absorbed_behind + (1.0 - shooter.albedo) * reflected
+
+    def _texels_on_pages(self):
+        """Per page, its receiving texels (_Texels), read back once."""
+        if self._receiving_texels is None:
+            self._receiving_texels = []
+            for page in self._pages:
+                position = self._read(page.textures["position"])
+                material = self._read(page.textures["material"])
+                occupied = (position[..., 3] > 0.0) & (material[..., 3] > 0.0)
+                y, x = np.nonzero(occupied)
+                order = np.argsort(position[y, x, 0], kind="stable")
+                y, x = y[order], x[order]
+                area = position[y, x, 3]
+                self._receiving_texels.append(_Texels(
+                    xy=np.stack([x, y], axis=1), position=position[y, x, :3].astype(np.float64),
+                    normal=_decode_normals(self._read(page.textures["normal"])[y, x]),
+                    side=np.sqrt(area.astype(np.float64)), area=area, albedo=material[y, x, :3]))
+        return self._receiving_texels
+
+    def _add_irradiance(self, page, texels, irradiance):
+        """Add (N, 3) irradiance to the texels (N, 2) of a page, leaving their unshot light."""
+        points = np.zeros((len(texels), 6), dtype=np.float32)
+        points[:, :2], points[:, 2:5] = texels, irradiance
+        if points.nbytes > self._gap_vbo.size:
+            self._gap_vbo.orphan(points.nbytes)
+        self._gap_vbo.write(points.tobytes())
+        page.receivers.color_mask = [(True,) * 4, (False,) * 4]
+        page.receivers.use()
+        ctx = self.ctx
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_equation = moderngl.FUNC_ADD
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        self._gap_vao.render(moderngl.POINTS, vertices=len(points))
+        ctx.disable(moderngl.BLEND)
+        page.receivers.color_mask = [(True,) * 4, (True,) * 4]
 
     def _shoot_light(self, light):
         program = self._programs["light"]
@@ -1382,6 +1487,37 @@ def _decode_normals(stored):
     xy = np.where((z < 0.0)[..., None], folded, p)
     n = np.concatenate([xy, z[..., None]], axis=-1)
     return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
+
+
+def _square_share_over(centre, normal, side, t, b, quad):
+    """The share of a texel's square (``side`` wide around its sample point, along the shaders'
+    tangent_of() of its ``normal``) over a convex ``quad``, both in the plane of t and b:
+    the square's ``centre`` and the quad's corners (4, 2) are coordinates along t and b."""
+    tangent = _tangent_of(normal)
+    half_t = 0.5 * side * np.array([tangent @ t, tangent @ b])
+    bitangent = np.cross(normal, tangent)
+    half_b = 0.5 * side * np.array([bitangent @ t, bitangent @ b])
+    polygon = [centre - half_t - half_b, centre + half_t - half_b,
+               centre + half_t + half_b, centre - half_t + half_b]
+    turn = np.sign(_cross2(quad[1] - quad[0], quad[2] - quad[1]))
+    for edge in range(4):   # Sutherland-Hodgman, one edge of the quad at a time
+        a, direction = quad[edge], quad[(edge + 1) % 4] - quad[edge]
+        kept = []
+        for p, q in zip(polygon, polygon[1:] + polygon[:1]):
+            dp, dq = turn * _cross2(direction, p - a), turn * _cross2(direction, q - a)
+            if dp >= 0.0:
+                kept.append(p)
+            if (dp >= 0.0) != (dq >= 0.0):
+                kept.append(p + (q - p) * (dp / (dp - dq)))
+        polygon = kept
+        if not polygon:
+            return 0.0
+    twice_area = sum(_cross2(p, q) for p, q in zip(polygon, polygon[1:] + polygon[:1]))
+    return min(0.5 * abs(twice_area) / max(4.0 * abs(_cross2(half_t, half_b)), 1e-30), 1.0)
+
+
+def _cross2(a, b):
+    return a[0] * b[1] - a[1] * b[0]
 
 
 def _tangent_of(n):

@@ -31,7 +31,7 @@ void main() {
     // the shooter: a texel there re-shoots from its sample point, so light gathered over the
     // rest of its square (say in a gap behind an emitter) would leak out from there. There it
     // gathers at its sample point, or, across a thin gap with that point over the shooter's
-    // surface, the share of its square over the shooter (receive_patch.frag, near_side).
+    // surface, nothing here: the solver adds the gap's light (receive_patch.frag, near_side).
     float near_side = in_near_field(position.xyz, side) ? side : 0.0;
     int split = near_side > 0.0 ? 1 : 1 << decode_level(texelFetch(u_level, texel, 0).r);
     vec3 tangent = tangent_of(normal);
