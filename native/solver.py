@@ -57,7 +57,7 @@ CROSSING_MARGIN = 1e-3
 # Edges bending less than this join triangles into one smooth surface (see smooth_surfaces).
 SMOOTH_SURFACE_DEGREES = 40.0
 # A gap under this share of a texel between facing surfaces is thin: receivers across it
-# gather over their square (receive_patch.frag).
+# get all its bounces at once (_close_thin_gap).
 SANDWICH_GAP = 0.1
 # The regions: the first arg-max pyramid level with at most this many texels.
 SELECTION_REGIONS = 1024
@@ -400,7 +400,7 @@ class Solver:
                 "visibility_hemisphere_tessellated.geom"),
             "nonlinear": gl.program("visibility.vert", "visibility_nonlinear.frag",
                                     "visibility_nonlinear.geom"),
-            # Shots with no thin gap near them take the variant without the gap's code,
+            # Shots with no thin gap near them take the variant without the gap's test,
             # which costs llvmpipe per fragment even where no texel takes it.
             "patch": gl.program("fullscreen.vert", "receive_patch.frag",
                                 defines={"THIN_GAPS": 0}),
@@ -470,7 +470,7 @@ class Solver:
         self._queue = []
         self._taken_vao = gl.vertex_array(self._programs["take"],
                                           [(self._taken_vbo, "2f 4f", "in_texel", "in_taken")])
-        self._gap_vbo = gl.buffer(reserve=64 * 24)   # grows with the texels of a thin gap
+        self._gap_vbo = gl.buffer(reserve=24)   # one texel: grows with the gaps met
         self._gap_vao = gl.vertex_array(self._programs["take"],
                                         [(self._gap_vbo, "2f 4f", "in_texel", "in_taken")])
         self._receiving_texels = None   # per page, _Texels, read at the first thin gap

@@ -280,12 +280,14 @@ def test_the_plates_back_receives_the_light_when_back_faces_receive(ctx, gl_clea
 
 
 def lamp_under_ceiling(lamp, half_width, rho_c, rho_l, radiance, receive_back=True):
-    """A square ceiling in z = 0 facing -z, and under it a lamp emitting from both faces."""
+    """A square ceiling in z = 0 facing -z, and under it a lamp emitting from both faces
+    (albedos grey, or one per colour channel)."""
     builder = SceneBuilder()
     w = half_width
-    builder.quad("ceiling", [(-w, -w, 0), (-w, w, 0), (w, w, 0), (w, -w, 0)], (rho_c,) * 3)
-    builder.quad("lamp", lamp, (rho_l,) * 3, (radiance,) * 3, two_sided=True,
-                 receive_back=receive_back)
+    builder.quad("ceiling", [(-w, -w, 0), (-w, w, 0), (w, w, 0), (w, -w, 0)],
+                 tuple(np.broadcast_to(rho_c, 3)))
+    builder.quad("lamp", lamp, tuple(np.broadcast_to(rho_l, 3)), (radiance,) * 3,
+                 two_sided=True, receive_back=receive_back)
     return builder.build()
 
 
@@ -326,8 +328,10 @@ def test_light_bouncing_in_a_gap_much_thinner_than_a_texel_makes_no_light(ctx, g
     closed form, or down to 0.80 gathering the share of its square. All the back's light stays
     in the gap: the front's half of the emission escapes downwards, and the gap loses only
     what reaches ceiling texels whose points lie beside the lamp (measured 1.5 % of the
-    back's light; the texels straddling the edge lose it)."""
-    rho_c, rho_l, radiance, gap = 0.725, 0.78, 17.0, 1e-4
+    back's light; the texels straddling the edge lose it). Albedos per colour channel: red
+    the Cornell box's, green and blue others."""
+    rho_c, rho_l = np.array([0.725, 0.9, 0.3]), np.array([0.78, 0.5, 0.95])
+    radiance, gap = 17.0, 1e-4
     x0, y0, x1, y1 = -0.052, -0.0455, 0.078, 0.0595
     lamp = [(x0, y0, -gap), (x0, y1, -gap), (x1, y1, -gap), (x1, y0, -gap)]   # faces -z
     images, samples, ledger, _, _ = solve(lamp_under_ceiling(lamp, 0.3, rho_c, rho_l, radiance),
@@ -339,7 +343,7 @@ def test_light_bouncing_in_a_gap_much_thinner_than_a_texel_makes_no_light(ctx, g
               & (positions[:, 0] > x0 + texel) & (positions[:, 0] < x1 - texel)
               & (positions[:, 1] > y0 + texel) & (positions[:, 1] < y1 - texel))
     assert inside.sum() >= 20
-    ratio = values[inside, 0] / (rho_c * radiance / (1 - rho_c * rho_l))
+    ratio = values[inside, :3] / (rho_c * radiance / (1 - rho_c * rho_l))
     assert np.abs(ratio - 1).max() < 1e-3
     assert ledger.imbalance() < 1e-4
     escaped = ledger.escaped / ledger.emitted
