@@ -59,6 +59,12 @@ SMOOTH_SURFACE_DEGREES = 40.0
 # A gap under this share of a texel between facing surfaces is thin: receivers across it
 # get all its bounces at once (_close_thin_gap).
 SANDWICH_GAP = 0.1
+# Within a gap height or two of a thin gap's open edge its light falls off (the office's
+# lamps 1 cm under the ceiling, at 25 cm texels: Cycles has 0.55 of the middle's light 1.5 cm
+# in). In a gap under this share of a texel that band is a small part of a texel, and a
+# texel across it shows the gap's light at its sample point; in a wider one, its square's
+# share (_close_thin_gap).
+POINT_GAP = 0.01
 # The regions: the first arg-max pyramid level with at most this many texels.
 SELECTION_REGIONS = 1024
 # What a shooter reads of its block: (attachment of _Page.blocks, components).
@@ -287,11 +293,12 @@ class Solver:
         """Energy ledger from the GPU maps (read back, summed in double precision)."""
         with using(self.ctx):
             totals = self._map_totals()
-            # Thin gaps' bounces (_close_thin_gap): the receivers' maps hold what came back to
-            # them, and the shooters' surfaces absorbed light their maps do not hold.
-            received = totals["received"] - self._gap_returned
-            return Ledger(self._emitted.copy(), totals["absorbed"] + self._gap_absorbed_behind,
-                          self._shot_power - received, totals["unshot"])
+            # Thin gaps (_close_thin_gap): what their receivers' maps show is not what arrived;
+            # all that arrived was absorbed in the gap.
+            received = totals["received"] - self._gap_shown_received + self._gap_arrived
+            absorbed = totals["absorbed"] - self._gap_shown_absorbed + self._gap_arrived
+            return Ledger(self._emitted.copy(), absorbed, self._shot_power - received,
+                          totals["unshot"])
 
     def ambient_radiance(self):
         """The unshot remainder as uniform radiance (Cohen et al. 1988): the area-weighted
@@ -474,8 +481,11 @@ class Solver:
         self._gap_vao = gl.vertex_array(self._programs["take"],
                                         [(self._gap_vbo, "2f 4f", "in_texel", "in_taken")])
         self._receiving_texels = None   # per page, _Texels, read at the first thin gap
-        self._gap_returned = np.zeros(3)         # W that thin gaps bounced back to receivers
-        self._gap_absorbed_behind = np.zeros(3)  # W the shooters' surfaces absorbed there
+        # Thin gaps' receivers (_close_thin_gap), W: the irradiance they show times their area,
+        # its part they absorb (as the maps would count it), and what really arrived.
+        self._gap_shown_received = np.zeros(3)
+        self._gap_shown_absorbed = np.zeros(3)
+        self._gap_arrived = np.zeros(3)
 
         self._measure_emission()
         lights = list(scene.lights) + sky_suns(scene.sky, settings.sky_directions)
@@ -1142,16 +1152,18 @@ class Solver:
         its surface (the texels the receiver pass left out: receive_patch.frag, sandwiched()),
         with all the gap's bounces at once. Between facing surfaces far closer than a texel,
         light shot at a point bounces between the two at that point until absorbed: a receiver
-        of albedo rho_r gets E / (1 - rho_r rho_s) from a shooter of albedo rho_s (E: the
-        share of its square under the shooter's quad, times pi L) and reflects none of it
-        out; the shooter's surface absorbs (1 - rho_s) of what it reflects."""
+        of albedo rho_r over a shooter of albedo rho_s shows pi L / (1 - rho_r rho_s) and
+        reflects none of it out. What arrives is pi L times the share of its square under the
+        shooter's quad and surface. In a gap under POINT_GAP of the texel it shows that over
+        the share of its square over the surface: the light at its sample point, as texels
+        show elsewhere and as Cycles bakes them. In a wider one, the share of its square."""
         t, b, n = shooter.frame.T
         centre = shooter.centre
         quad = np.asarray(shooter.quad, dtype=np.float64) - centre
         quad = np.stack([quad @ t, quad @ b], axis=1)
         reach = 0.5 * float(np.linalg.norm(quad[2] - quad[0]))   # in_near_field()
         u_min, u_max, v_min, v_max = shooter.extent
-        reflected = np.zeros(3)
+        surface = np.array([(u_min, v_min), (u_max, v_min), (u_max, v_max), (u_min, v_max)])
         for page, texels in zip(self._pages, self._texels_on_pages()):
             near = texels.near(centre, reach)
             offsets = texels.position[near] - centre
@@ -1165,15 +1177,20 @@ class Solver:
             if not len(inside):
                 continue
             chosen = near[inside]
-            shares = np.array([_square_share_over(np.array([u[i], v[i]]), normal[i], side[i],
-                                                  t, b, quad) for i in inside])
+            under, over = np.array([[_square_share_over(np.array([u[i], v[i]]), normal[i],
+                                                        side[i], t, b, *outlines)
+                                     for outlines in ((quad, surface), (surface,))]
+                                    for i in inside]).T
+            at_point = height[inside] < POINT_GAP * side[inside]
+            shown_share = np.where(at_point, under / np.maximum(over, 1e-6), under)
             albedo = texels.albedo[chosen].astype(np.float64)
-            gained = (math.pi * shooter.radiance * shares[:, None]
-                      / (1.0 - albedo * shooter.albedo)).astype(np.float32)
-            self._add_irradiance(page, texels.xy[chosen], gained)
-            reflected += (albedo * gained * texels.area[chosen, None]).sum(axis=0)
-        self._gap_returned = self._gap_returned + shooter.albedo * reflected
-        self._gap_absorbed_behind = self._gap_absorbed_behind + (1.0 - shooter.albedo) * reflected
+            area = texels.area[chosen, None].astype(np.float64)
+            shown = (math.pi * shooter.radiance * shown_share[:, None]
+                     / (1.0 - albedo * shooter.albedo)).astype(np.float32)
+            self._add_irradiance(page, texels.xy[chosen], shown)
+            self._gap_shown_received += (shown * area).sum(axis=0)
+            self._gap_shown_absorbed += ((1.0 - albedo) * shown * area).sum(axis=0)
+            self._gap_arrived += (math.pi * shooter.radiance * under[:, None] * area).sum(axis=0)
 
     def _texels_on_pages(self):
         """Per page, its receiving texels (_Texels), read back once."""
@@ -1489,29 +1506,31 @@ def _decode_normals(stored):
     return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
 
 
-def _square_share_over(centre, normal, side, t, b, quad):
+def _square_share_over(centre, normal, side, t, b, *outlines):
     """The share of a texel's square (``side`` wide around its sample point, along the shaders'
-    tangent_of() of its ``normal``) over a convex ``quad``, both in the plane of t and b:
-    the square's ``centre`` and the quad's corners (4, 2) are coordinates along t and b."""
+    tangent_of() of its ``normal``) inside every one of the convex ``outlines``, all in the
+    plane of t and b: the square's ``centre`` and the outlines' corners (4, 2) are
+    coordinates along t and b."""
     tangent = _tangent_of(normal)
     half_t = 0.5 * side * np.array([tangent @ t, tangent @ b])
     bitangent = np.cross(normal, tangent)
     half_b = 0.5 * side * np.array([bitangent @ t, bitangent @ b])
     polygon = [centre - half_t - half_b, centre + half_t - half_b,
                centre + half_t + half_b, centre - half_t + half_b]
-    turn = np.sign(_cross2(quad[1] - quad[0], quad[2] - quad[1]))
-    for edge in range(4):   # Sutherland-Hodgman, one edge of the quad at a time
-        a, direction = quad[edge], quad[(edge + 1) % 4] - quad[edge]
-        kept = []
-        for p, q in zip(polygon, polygon[1:] + polygon[:1]):
-            dp, dq = turn * _cross2(direction, p - a), turn * _cross2(direction, q - a)
-            if dp >= 0.0:
-                kept.append(p)
-            if (dp >= 0.0) != (dq >= 0.0):
-                kept.append(p + (q - p) * (dp / (dp - dq)))
-        polygon = kept
-        if not polygon:
-            return 0.0
+    for quad in outlines:
+        turn = np.sign(_cross2(quad[1] - quad[0], quad[2] - quad[1]))
+        for edge in range(4):   # Sutherland-Hodgman, one edge of the outline at a time
+            a, direction = quad[edge], quad[(edge + 1) % 4] - quad[edge]
+            kept = []
+            for p, q in zip(polygon, polygon[1:] + polygon[:1]):
+                dp, dq = turn * _cross2(direction, p - a), turn * _cross2(direction, q - a)
+                if dp >= 0.0:
+                    kept.append(p)
+                if (dp >= 0.0) != (dq >= 0.0):
+                    kept.append(p + (q - p) * (dp / (dp - dq)))
+            polygon = kept
+            if not polygon:
+                return 0.0
     twice_area = sum(_cross2(p, q) for p, q in zip(polygon, polygon[1:] + polygon[:1]))
     return min(0.5 * abs(twice_area) / max(4.0 * abs(_cross2(half_t, half_b)), 1e-30), 1.0)
 
