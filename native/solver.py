@@ -1162,26 +1162,34 @@ class Solver:
         quad = np.asarray(shooter.quad, dtype=np.float64) - centre
         quad = np.stack([quad @ t, quad @ b], axis=1)
         reach = 0.5 * float(np.linalg.norm(quad[2] - quad[0]))   # in_near_field()
+        low, high = quad.min(axis=0), quad.max(axis=0)
         u_min, u_max, v_min, v_max = shooter.extent
-        surface = np.array([(u_min, v_min), (u_max, v_min), (u_max, v_max), (u_min, v_max)])
+        # Outlines as complex coordinates along t and b (_square_share_over).
+        surface = [complex(u_min, v_min), complex(u_max, v_min), complex(u_max, v_max),
+                   complex(u_min, v_max)]
+        quad = [complex(x, y) for x, y in quad]
         for page, texels in zip(self._pages, self._texels_on_pages()):
             near = texels.near(centre, reach)
             offsets = texels.position[near] - centre
             height, u, v = offsets @ n, offsets @ t, offsets @ b
             side, normal = texels.side[near], texels.normal[near]
+            corner = math.sqrt(0.5) * side   # how far a texel's square reaches from its point
             inside = np.nonzero(
                 (height > self._epsilon) & (height < SANDWICH_GAP * side)
                 & ((normal * offsets).sum(axis=1) < 0.0) & (normal @ n < -0.99)
                 & (np.linalg.norm(offsets, axis=1) < reach + 2.0 * side)
-                & (u >= u_min) & (u <= u_max) & (v >= v_min) & (v <= v_max))[0]
+                & (u >= u_min) & (u <= u_max) & (v >= v_min) & (v <= v_max)
+                & (u + corner >= low[0]) & (u - corner <= high[0])
+                & (v + corner >= low[1]) & (v - corner <= high[1]))[0]
             if not len(inside):
                 continue
             chosen = near[inside]
-            under, over = np.array([[_square_share_over(np.array([u[i], v[i]]), normal[i],
-                                                        side[i], t, b, *outlines)
-                                     for outlines in ((quad, surface), (surface,))]
-                                    for i in inside]).T
             at_point = height[inside] < POINT_GAP * side[inside]
+            square = list(zip(u[inside] + 1j * v[inside],
+                              *_square_halves(normal[inside], side[inside], t, b)))
+            under = np.array([_square_share_over(*texel, quad, surface) for texel in square])
+            over = np.array([_square_share_over(*texel, surface) if point else 1.0
+                             for texel, point in zip(square, at_point)])
             shown_share = np.where(at_point, under / np.maximum(over, 1e-6), under)
             albedo = texels.albedo[chosen].astype(np.float64)
             area = texels.area[chosen, None].astype(np.float64)
@@ -1506,19 +1514,25 @@ def _decode_normals(stored):
     return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
 
 
-def _square_share_over(centre, normal, side, t, b, *outlines):
-    """The share of a texel's square (``side`` wide around its sample point, along the shaders'
-    tangent_of() of its ``normal``) inside every one of the convex ``outlines``, all in the
-    plane of t and b: the square's ``centre`` and the outlines' corners (4, 2) are
-    coordinates along t and b."""
-    tangent = _tangent_of(normal)
-    half_t = 0.5 * side * np.array([tangent @ t, tangent @ b])
+def _square_halves(normal, side, t, b):
+    """Half of each texel's square edges (N,) x 2, along the shaders' tangent_of() of its
+    ``normal`` and the bitangent, as complex coordinates along t and b."""
+    axis = np.eye(3)[np.argmin(np.abs(normal), axis=1)]
+    tangent = axis - normal * (axis * normal).sum(axis=1, keepdims=True)
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
     bitangent = np.cross(normal, tangent)
-    half_b = 0.5 * side * np.array([bitangent @ t, bitangent @ b])
+    return tuple(0.5 * side * (edge @ t + 1j * (edge @ b)) for edge in (tangent, bitangent))
+
+
+def _square_share_over(centre, half_t, half_b, *outlines):
+    """The share of a texel's square (around ``centre``, half edges ``half_t`` and ``half_b``)
+    inside every one of the convex ``outlines`` (4 corners each), all complex coordinates in
+    one plane. Plain complex numbers: a few dozen operations per texel, where numpy's
+    per-call cost would dominate."""
     polygon = [centre - half_t - half_b, centre + half_t - half_b,
                centre + half_t + half_b, centre - half_t + half_b]
     for quad in outlines:
-        turn = np.sign(_cross2(quad[1] - quad[0], quad[2] - quad[1]))
+        turn = 1.0 if _cross2(quad[1] - quad[0], quad[2] - quad[1]) >= 0.0 else -1.0
         for edge in range(4):   # Sutherland-Hodgman, one edge of the outline at a time
             a, direction = quad[edge], quad[(edge + 1) % 4] - quad[edge]
             kept = []
@@ -1536,7 +1550,8 @@ def _square_share_over(centre, normal, side, t, b, *outlines):
 
 
 def _cross2(a, b):
-    return a[0] * b[1] - a[1] * b[0]
+    """Twice the signed area two complex numbers span as plane vectors."""
+    return a.real * b.imag - a.imag * b.real
 
 
 def _tangent_of(n):
