@@ -167,6 +167,7 @@ class _Shooter:
     extent: tuple               # its surface along its frame's t and b (_surface_extent)
                                 # when a receiver may face it across a thin gap, else None
     albedo: np.ndarray          # its texels' mean albedo: what a thin gap's far side bounces
+    surface: int                # its surface's number (0: it does not receive)
 
 
 @dataclass
@@ -471,7 +472,7 @@ class Solver:
         # The BLOCK_MAPS of every block of a selection.
         self._staging = gl.buffer(reserve=settings.shooters_per_selection * block * block * 4
                                   * sum(components for _, components in BLOCK_MAPS))
-        self._surface_points = {}   # surface number -> its vertices (_surface_extent)
+        self._surface_corners = {}  # surface number -> its triangles' corners (_corners_of)
         self._strongest_patch = 0.0
         self._strongest_shot = 0.0
         self._queue = []
@@ -1056,7 +1057,8 @@ class Solver:
             radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
             extent=(self._surface_extent(int(surface[strongest]), centre, t, b)
                     if self._thin_gap_near(region, position, normal, texel_size) else None),
-            albedo=(albedo[members] * weights).sum(axis=0) / total_area)
+            albedo=(albedo[members] * weights).sum(axis=0) / total_area,
+            surface=int(surface[strongest]))
 
     def _surface_extent(self, surface, centre, t, b):
         """The rectangle (u min, u max, v min, v max) along t and b from ``centre`` that holds
@@ -1064,13 +1066,17 @@ class Solver:
         does not receive (its texels hold no number)."""
         if surface <= 0:
             return (1.0, -1.0, 1.0, -1.0)
-        points = self._surface_points.get(surface)
-        if points is None:
-            triangles = self.scene.triangles[self._surfaces == surface]
-            points = self._surface_points[surface] = self.scene.vertices[np.unique(triangles)]
-        offsets = points - centre
+        offsets = self._corners_of(surface).reshape(-1, 3) - centre
         u, v = offsets @ t, offsets @ b
         return (float(u.min()), float(u.max()), float(v.min()), float(v.max()))
+
+    def _corners_of(self, surface):
+        """The corners (T, 3, 3) of the triangles of a surface number."""
+        corners = self._surface_corners.get(surface)
+        if corners is None:
+            corners = self._surface_corners[surface] = self.scene.vertices[
+                self.scene.triangles[self._surfaces == surface]]
+        return corners
 
     def _thin_gap_near(self, region, position, normal, texel_size):
         """Whether a receiving triangle faces some texel of the region across a gap under
@@ -1168,6 +1174,8 @@ class Solver:
         surface = [complex(u_min, v_min), complex(u_max, v_min), complex(u_max, v_max),
                    complex(u_min, v_max)]
         quad = [complex(x, y) for x, y in quad]
+        shooter_triangles = self._corners_of(shooter.surface) - centre
+        shooter_triangles = np.stack([shooter_triangles @ t, shooter_triangles @ b], axis=-1)
         for page, texels in zip(self._pages, self._texels_on_pages()):
             near = texels.near(centre, reach)
             offsets = texels.position[near] - centre
@@ -1191,6 +1199,10 @@ class Solver:
             over = np.array([_square_share_over(*texel, surface) if point else 1.0
                              for texel, point in zip(square, at_point)])
             shown_share = np.where(at_point, under / np.maximum(over, 1e-6), under)
+            # A texel whose point lies beside the surface, in its rectangle (a hexagonal
+            # lamp's corners), shows none of the gap's light; what reached its square under
+            # the surface stays absorbed in the gap.
+            shown_share[~_over_triangles(u[inside], v[inside], shooter_triangles)] = 0.0
             albedo = texels.albedo[chosen].astype(np.float64)
             area = texels.area[chosen, None].astype(np.float64)
             shown = (math.pi * shooter.radiance * shown_share[:, None]
@@ -1512,6 +1524,15 @@ def _decode_normals(stored):
     xy = np.where((z < 0.0)[..., None], folded, p)
     n = np.concatenate([xy, z[..., None]], axis=-1)
     return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
+
+
+def _over_triangles(u, v, triangles):
+    """Whether each point (u, v) lies in one of the 2D ``triangles`` (T, 3, 2)."""
+    point = np.stack([u, v], axis=1)[:, None, None, :]                       # (N, 1, 1, 2)
+    a, b = triangles[None], np.roll(triangles, -1, axis=1)[None]             # (1, T, 3, 2)
+    sides = ((b[..., 0] - a[..., 0]) * (point[..., 1] - a[..., 1])
+             - (b[..., 1] - a[..., 1]) * (point[..., 0] - a[..., 0]))         # (N, T, 3)
+    return ((sides >= 0.0).all(axis=2) | (sides <= 0.0).all(axis=2)).any(axis=1)
 
 
 def _square_halves(normal, side, t, b):
