@@ -1205,8 +1205,9 @@ class Solver:
             shown_share[~_over_triangles(u[inside], v[inside], shooter_triangles)] = 0.0
             albedo = texels.albedo[chosen].astype(np.float64)
             area = texels.area[chosen, None].astype(np.float64)
-            shown = (math.pi * shooter.radiance * shown_share[:, None]
-                     / (1.0 - albedo * shooter.albedo)).astype(np.float32)
+            # Two albedos of 1 would keep the light for ever: at most 1,000 times.
+            bounces = 1.0 / np.maximum(1.0 - albedo * shooter.albedo, 1e-3)
+            shown = (math.pi * shooter.radiance * shown_share[:, None] * bounces).astype(np.float32)
             self._add_irradiance(page, texels.xy[chosen], shown)
             self._gap_shown_received += (shown * area).sum(axis=0)
             self._gap_shown_absorbed += ((1.0 - albedo) * shown * area).sum(axis=0)
