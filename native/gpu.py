@@ -136,17 +136,14 @@ def using(ctx):
     _restore(saved)
 
 
-def load_shader(name, defines=None):
-    """Source of shaders/<name>, with #include "file" lines replaced by that file and
-    ``defines`` (name -> value) defined after its #version line."""
+def load_shader(name):
+    """Source of shaders/<name>, with #include "file" lines replaced by that file."""
     def expand(path, seen):
         if path in seen:
             raise RuntimeError(f"recursive #include of {path}")
         text = (SHADER_DIR / path).read_text()
         return _INCLUDE.sub(lambda m: expand(m.group(1), seen | {path}), text)
-    version, _, body = expand(name, frozenset()).partition("\n")
-    lines = [f"#define {key} {value}" for key, value in (defines or {}).items()]
-    return "\n".join([version, *lines, body])
+    return expand(name, frozenset())
 
 
 class GLObjects:
@@ -180,11 +177,11 @@ class GLObjects:
     def buffer(self, data=None, reserve=0):
         return self.keep(self.ctx.buffer(data, reserve=reserve))
 
-    def program(self, vertex, fragment, geometry=None, defines=None):
-        """A program from shader files; ``defines`` apply to the fragment shader."""
+    def program(self, vertex, fragment, geometry=None):
+        """A program from shader files."""
         return self.keep(self.ctx.program(
             vertex_shader=load_shader(vertex),
-            fragment_shader=load_shader(fragment, defines),
+            fragment_shader=load_shader(fragment),
             geometry_shader=load_shader(geometry) if geometry else None))
 
     def vertex_array(self, program, content):

@@ -59,6 +59,8 @@ SMOOTH_SURFACE_DEGREES = 40.0
 # A gap under this share of a texel between facing surfaces is thin: receivers across it
 # get all its bounces at once (_close_thin_gap).
 SANDWICH_GAP = 0.1
+# A surface rectangle (u min, u max, v min, v max) that holds no point.
+NO_SURFACE = (1.0, -1.0, 1.0, -1.0)
 # Within a gap height or two of a thin gap's open edge its light falls off (the office's
 # lamps 1 cm under the ceiling, at 25 cm texels: Cycles has 0.55 of the middle's light 1.5 cm
 # in). In a gap under this share of a texel that band is a small part of a texel, and a
@@ -180,11 +182,12 @@ class _Texels:
     side: np.ndarray            # (N,) the root of the area, as the shaders take it
     area: np.ndarray            # (N,) float32, as the maps hold it
     albedo: np.ndarray          # (N, 3) float32, as the maps hold it
+    largest_side: float
 
     def near(self, centre, reach):
         """The indices of the texels whose x lies within ``reach`` and two of their sides of
         the centre's (in_near_field())."""
-        radius = reach + 2.0 * float(self.side.max(initial=0.0))
+        radius = reach + 2.0 * self.largest_side
         first, last = np.searchsorted(self.position[:, 0], [centre[0] - radius, centre[0] + radius])
         return np.arange(first, last)
 
@@ -408,12 +411,7 @@ class Solver:
                 "visibility_hemisphere_tessellated.geom"),
             "nonlinear": gl.program("visibility.vert", "visibility_nonlinear.frag",
                                     "visibility_nonlinear.geom"),
-            # Shots with no thin gap near them take the variant without the gap's test,
-            # which costs llvmpipe per fragment even where no texel takes it.
-            "patch": gl.program("fullscreen.vert", "receive_patch.frag",
-                                defines={"THIN_GAPS": 0}),
-            "patch_thin_gap": gl.program("fullscreen.vert", "receive_patch.frag",
-                                         defines={"THIN_GAPS": 1}),
+            "patch": gl.program("fullscreen.vert", "receive_patch.frag"),
             "light": gl.program("fullscreen.vert", "receive_light.frag"),
             "take": gl.program("take_unshot.vert", "take_unshot.frag"),
         }
@@ -421,7 +419,7 @@ class Solver:
             self._programs["count"] = gl.program("raster.vert", "shadow_count.frag", "raster.geom")
             self._programs["level"] = gl.program("raster.vert", "set_level.frag", "raster.geom")
         self._fullscreen = {name: gl.vertex_array(self._programs[name], [])
-                            for name in ("block", "argmax", "patch", "patch_thin_gap", "light")}
+                            for name in ("block", "argmax", "patch", "light")}
         self._set_constant_uniforms()
         self._albedo_textures = []
         for image in scene.albedo_textures:
@@ -468,7 +466,9 @@ class Solver:
         self._triangle_vertices = positions.shape[0] * 3
         block = 1 << (settings.shoot_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
                                               else 0))
-        self._taken_vbo = gl.buffer(reserve=block * block * 24)
+        # One point per texel whose maps a shot changes in place (_blend_points): what the
+        # shot took, a thin gap's light. Grows with the largest such set.
+        self._points_vbo = gl.buffer(reserve=block * block * 24)
         # The BLOCK_MAPS of every block of a selection.
         self._staging = gl.buffer(reserve=settings.shooters_per_selection * block * block * 4
                                   * sum(components for _, components in BLOCK_MAPS))
@@ -476,11 +476,8 @@ class Solver:
         self._strongest_patch = 0.0
         self._strongest_shot = 0.0
         self._queue = []
-        self._taken_vao = gl.vertex_array(self._programs["take"],
-                                          [(self._taken_vbo, "2f 4f", "in_texel", "in_taken")])
-        self._gap_vbo = gl.buffer(reserve=24)   # one texel: grows with the gaps met
-        self._gap_vao = gl.vertex_array(self._programs["take"],
-                                        [(self._gap_vbo, "2f 4f", "in_texel", "in_taken")])
+        self._points_vao = gl.vertex_array(self._programs["take"],
+                                           [(self._points_vbo, "2f 4f", "in_texel", "in_taken")])
         self._receiving_texels = None   # per page, _Texels, read at the first thin gap
         # Thin gaps' receivers (_close_thin_gap), W: the irradiance they show times their area,
         # its part they absorb (as the maps would count it), and what really arrived.
@@ -518,8 +515,7 @@ class Solver:
             "nonlinear": {"u_resolution": float(self._map_size)},
             "hemisphere": {"u_resolution": float(self._map_size)},
             "hemisphere_tessellated": {"u_resolution": float(self._map_size)},
-            "patch": receivers,
-            "patch_thin_gap": {**receivers, "u_sandwich_gap": SANDWICH_GAP},
+            "patch": {**receivers, "u_sandwich_gap": SANDWICH_GAP},
             "light": receivers,
             "take": {"u_atlas_size": size},
             "count": {**receivers, "u_atlas_size": size},
@@ -1065,7 +1061,7 @@ class Solver:
         the shooter's surface (all surfaces of its number), or an empty one for a shooter that
         does not receive (its texels hold no number)."""
         if surface <= 0:
-            return (1.0, -1.0, 1.0, -1.0)
+            return NO_SURFACE
         offsets = self._corners_of(surface).reshape(-1, 3) - centre
         u, v = offsets @ t, offsets @ b
         return (float(u.min()), float(u.max()), float(v.min()), float(v.max()))
@@ -1142,14 +1138,14 @@ class Solver:
         self._timed("visibility", self._render_visibility, eye, shooter.frame, 5, True, False)
         self._maybe_subdivide(float(np.mean(shot_power)), True)
         self._take_unshot(shooter)
-        kind = "patch" if shooter.extent is None else "patch_thin_gap"
-        program = self._programs[kind]
+        program = self._programs["patch"]
         _set(program, "u_quad", [tuple(corner) for corner in shooter.quad])
         _set(program, "u_centre", tuple(shooter.centre))
         _set(program, "u_radiance", tuple(shooter.radiance))
-        if shooter.extent is not None:
-            _set(program, "u_surface_extent", shooter.extent)
-        self._timed("receivers", self._update_receivers, kind)
+        # An empty rectangle: no texel is across a thin gap from this shooter.
+        _set(program, "u_surface_extent",
+             NO_SURFACE if shooter.extent is None else shooter.extent)
+        self._timed("receivers", self._update_receivers, "patch")
         if shooter.extent is not None:
             self._timed("receivers", self._close_thin_gap, shooter)
 
@@ -1228,25 +1224,33 @@ class Solver:
                 self._receiving_texels.append(_Texels(
                     xy=np.stack([x, y], axis=1), position=position[y, x, :3].astype(np.float64),
                     normal=_decode_normals(self._read(page.textures["normal"])[y, x]),
-                    side=np.sqrt(area.astype(np.float64)), area=area, albedo=material[y, x, :3]))
+                    side=np.sqrt(area.astype(np.float64)), area=area, albedo=material[y, x, :3],
+                    largest_side=float(np.sqrt(area.max(initial=0.0)))))
         return self._receiving_texels
 
     def _add_irradiance(self, page, texels, irradiance):
         """Add (N, 3) irradiance to the texels (N, 2) of a page, leaving their unshot light."""
-        points = np.zeros((len(texels), 6), dtype=np.float32)
-        points[:, :2], points[:, 2:5] = texels, irradiance
-        if points.nbytes > self._gap_vbo.size:
-            self._gap_vbo.orphan(points.nbytes)
-        self._gap_vbo.write(points.tobytes())
         page.receivers.color_mask = [(True,) * 4, (False,) * 4]
-        page.receivers.use()
+        values = np.zeros((len(texels), 4), dtype=np.float32)
+        values[:, :3] = irradiance
+        self._blend_points(page.receivers, texels, values, moderngl.FUNC_ADD)
+        page.receivers.color_mask = [(True,) * 4, (True,) * 4]
+
+    def _blend_points(self, framebuffer, texels, values, equation):
+        """Blend (N, 4) values into the texels (N, 2) of a framebuffer's first attachment by
+        ``equation``, one point each (take_unshot.*)."""
+        points = np.concatenate([texels, values], axis=1).astype(np.float32)
+        if points.nbytes > self._points_vbo.size:
+            self._points_vbo.orphan(points.nbytes)
+        self._points_vbo.write(points.tobytes())
+        framebuffer.use()
         ctx = self.ctx
         ctx.enable(moderngl.BLEND)
-        ctx.blend_equation = moderngl.FUNC_ADD
+        ctx.blend_equation = equation
         ctx.blend_func = moderngl.ONE, moderngl.ONE
-        self._gap_vao.render(moderngl.POINTS, vertices=len(points))
+        self._points_vao.render(moderngl.POINTS, vertices=len(points))
+        ctx.blend_equation = moderngl.FUNC_ADD
         ctx.disable(moderngl.BLEND)
-        page.receivers.color_mask = [(True,) * 4, (True,) * 4]
 
     def _shoot_light(self, light):
         program = self._programs["light"]
@@ -1331,16 +1335,8 @@ class Solver:
     def _take_unshot(self, shooter):
         """Subtract what the shot took from its texels' unshot energy (exactly the values it
         read, so energy they received since stays)."""
-        points = np.concatenate([shooter.texels.astype(np.float32), shooter.unshot], axis=1)
-        self._taken_vbo.write(points.astype("f4").tobytes())
-        shooter.page.unshot_only.use()
-        ctx = self.ctx
-        ctx.enable(moderngl.BLEND)
-        ctx.blend_equation = moderngl.FUNC_REVERSE_SUBTRACT
-        ctx.blend_func = moderngl.ONE, moderngl.ONE
-        self._taken_vao.render(moderngl.POINTS, vertices=len(points))
-        ctx.blend_equation = moderngl.FUNC_ADD
-        ctx.disable(moderngl.BLEND)
+        self._blend_points(shooter.page.unshot_only, shooter.texels, shooter.unshot,
+                           moderngl.FUNC_REVERSE_SUBTRACT)
 
     def _update_receivers(self, kind):
         program = self._programs[kind]

@@ -2,8 +2,6 @@
 // Receiver update for a shooting patch: every receiving texel visible from the shooter gains
 // irradiance pi * L * F, with F the exact point-to-polygon form factor (Lambert's formula)
 // of the shooter's quad clipped to the receiver's horizon: bounded however close they are.
-// THIN_GAPS (0 or 1, defined by the solver): whether receivers across a thin gap are left to
-// the solver (sandwiched()).
 #include "projection.glsl"
 #include "visibility_test.glsl"
 #include "receiver_common.glsl"
@@ -64,9 +62,8 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     // Only what lies in front. The shooter's own plane gets nothing: Lambert's formula jumps
     // to 1 at a point inside a coplanar polygon, and rounding puts such points on either side.
     if (height <= u_epsilon || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
-#if THIN_GAPS
+    // Across a thin gap the solver gives the light (sandwiched()).
     if (near_side > 0.0 && sandwiched(from_shooter, height, normal, near_side)) return vec3(0.0);
-#endif
     float visible = visible_from_eye(point, normal, receiver_surface);
     if (visible <= 0.0) return vec3(0.0);
     return PI * u_radiance * polygon_form_factor(point, normal) * visible;
