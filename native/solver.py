@@ -479,6 +479,8 @@ class Solver:
         self._points_vao = gl.vertex_array(self._programs["take"],
                                            [(self._points_vbo, "2f 4f", "in_texel", "in_taken")])
         self._receiving_texels = None   # per page, _Texels, read at the first thin gap
+        self._page_triangles = None     # per page, its triangles' texel and world corners
+        self._lit_polygons = {}         # (page, x0, y0, x1, y1) -> what those texels cover
         # Thin gaps' receivers (_close_thin_gap), W: the irradiance they show times their area,
         # its part they absorb (as the maps would count it), and what really arrived.
         self._gap_shown_received = np.zeros(3)
@@ -1155,23 +1157,29 @@ class Solver:
         with all the gap's bounces at once. Between facing surfaces far closer than a texel,
         light shot at a point bounces between the two at that point until absorbed: a receiver
         of albedo rho_r over a shooter of albedo rho_s shows pi L / (1 - rho_r rho_s) and
-        reflects none of it out. What arrives is pi L times the share of its square under the
-        shooter's quad and surface. In a gap under POINT_GAP of the texel it shows that over
-        the share of its square over the surface: the light at its sample point, as texels
-        show elsewhere and as Cycles bakes them. In a wider one, the share of its square."""
+        reflects none of it out. What arrives is pi L times the share of its square under what
+        the shooter's texels cover (_lit_by: the shooters of a surface tile it exactly, where
+        their quads, rectangles of their texels' area, leave holes along a slanted edge). In a
+        gap under POINT_GAP of the texel it shows that over the share of its square over the
+        surface: the light at its sample point, as texels show elsewhere. In a wider one, the
+        share of its square, which measured closer to Cycles there (BENCHMARKS.md)."""
         t, b, n = shooter.frame.T
         centre = shooter.centre
-        quad = np.asarray(shooter.quad, dtype=np.float64) - centre
-        quad = np.stack([quad @ t, quad @ b], axis=1)
-        reach = 0.5 * float(np.linalg.norm(quad[2] - quad[0]))   # in_near_field()
-        low, high = quad.min(axis=0), quad.max(axis=0)
+        lit = [(polygon - centre) @ np.stack([t, b], axis=1) for polygon in self._lit_by(shooter)]
+        if not lit:
+            return
+        corners = np.concatenate(lit)
+        reach = float(np.linalg.norm(corners, axis=1).max())   # in_near_field()
+        low, high = corners.min(axis=0), corners.max(axis=0)
+        lit = [[complex(x, y) for x, y in polygon] for polygon in lit]   # _clipped()
         u_min, u_max, v_min, v_max = shooter.extent
-        # Outlines as complex coordinates along t and b (_square_share_over).
-        surface = [complex(u_min, v_min), complex(u_max, v_min), complex(u_max, v_max),
-                   complex(u_min, v_max)]
-        quad = [complex(x, y) for x, y in quad]
-        shooter_triangles = self._corners_of(shooter.surface) - centre
-        shooter_triangles = np.stack([shooter_triangles @ t, shooter_triangles @ b], axis=-1)
+        # The surface's triangles in the shooter's plane facing its way (a bent surface's
+        # others face elsewhere; a sheet's back is the same surface), along t and b.
+        triangles = self._corners_of(shooter.surface) - centre
+        texel_side = math.sqrt(shooter.area / len(shooter.texels))
+        facing = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]) @ n
+        flat = (np.abs(triangles @ n).max(axis=1) < 0.25 * texel_side) & (facing > 0.0)
+        triangles = np.stack([triangles[flat] @ t, triangles[flat] @ b], axis=-1)
         for page, texels in zip(self._pages, self._texels_on_pages()):
             near = texels.near(centre, reach)
             offsets = texels.position[near] - centre
@@ -1189,16 +1197,22 @@ class Solver:
                 continue
             chosen = near[inside]
             at_point = height[inside] < POINT_GAP * side[inside]
-            square = list(zip(u[inside] + 1j * v[inside],
-                              *_square_halves(normal[inside], side[inside], t, b)))
-            under = np.array([_square_share_over(*texel, quad, surface) for texel in square])
-            over = np.array([_square_share_over(*texel, surface) if point else 1.0
-                             for texel, point in zip(square, at_point)])
+            squares = [_square(point, half_t, half_b) for point, half_t, half_b in zip(
+                u[inside] + 1j * v[inside], *_square_halves(normal[inside], side[inside], t, b))]
+            reaching = float(corner[inside].max())
+            over_surface = _triangles_within(
+                triangles, np.array([u[inside].min(), v[inside].min()]) - reaching,
+                np.array([u[inside].max(), v[inside].max()]) + reaching)
+            # The share of each square under the lit polygons; in a gap under POINT_GAP, over
+            # the share of the square over the surface.
+            under = np.array([_share_under(square, lit) for square in squares])
+            over = np.array([_share_under(square, over_surface) if point else 1.0
+                             for square, point in zip(squares, at_point)])
             shown_share = np.where(at_point, under / np.maximum(over, 1e-6), under)
             # A texel whose point lies beside the surface, in its rectangle (a hexagonal
             # lamp's corners), shows none of the gap's light; what reached its square under
             # the surface stays absorbed in the gap.
-            shown_share[~_over_triangles(u[inside], v[inside], shooter_triangles)] = 0.0
+            shown_share[~_over_triangles(u[inside], v[inside], triangles)] = 0.0
             albedo = texels.albedo[chosen].astype(np.float64)
             area = texels.area[chosen, None].astype(np.float64)
             # Two albedos of 1 would keep the light for ever: at most 1,000 times.
@@ -1208,6 +1222,42 @@ class Solver:
             self._gap_shown_received += (shown * area).sum(axis=0)
             self._gap_shown_absorbed += ((1.0 - albedo) * shown * area).sum(axis=0)
             self._gap_arrived += (math.pi * shooter.radiance * under[:, None] * area).sum(axis=0)
+
+    def _lit_by(self, shooter):
+        """The world polygons a shooter's texels cover: the triangles on its page clipped to
+        its texels' rectangle in the lightmap (texel i spans [i, i + 1)), each mapped back to
+        the world by its own affine map. Blocks are shot many times: once per rectangle."""
+        page = self._pages.index(shooter.page)
+        (x0, y0), (x1, y1) = shooter.texels.min(axis=0), shooter.texels.max(axis=0) + 1
+        key = (page, int(x0), int(y0), int(x1), int(y1))
+        polygons = self._lit_polygons.get(key)
+        if polygons is not None:
+            return polygons
+        if self._page_triangles is None:
+            atlas = self.atlas
+            corners = self.scene.vertices[self.scene.triangles[atlas.triangles]]
+            self._page_triangles = [(atlas.texels[on], corners[on])
+                                    for on in (atlas.page == index
+                                               for index in range(atlas.page_count))]
+        texels, corners = self._page_triangles[page]
+        meets = np.nonzero((texels[..., 0].min(axis=1) < x1) & (texels[..., 0].max(axis=1) > x0)
+                           & (texels[..., 1].min(axis=1) < y1)
+                           & (texels[..., 1].max(axis=1) > y0))[0]
+        rectangle = [complex(x0, y0), complex(x1, y0), complex(x1, y1), complex(x0, y1)]
+        polygons = []
+        for triangle in meets:
+            uv, points = texels[triangle], corners[triangle]
+            edges = (uv[1:] - uv[0]).T                        # columns: the texel-space edges
+            if abs(np.linalg.det(edges)) < 1e-12:
+                continue
+            piece = _clipped([complex(x, y) for x, y in uv], rectangle)
+            if len(piece) < 3:
+                continue
+            offsets = np.array([[p.real, p.imag] for p in piece]) - uv[0]
+            weights = np.linalg.solve(edges, offsets.T).T     # along the triangle's two edges
+            polygons.append(points[0] + weights @ (points[1:] - points[0]))
+        self._lit_polygons[key] = polygons
+        return polygons
 
     def _texels_on_pages(self):
         """Per page, its receiving texels (_Texels), read back once."""
@@ -1542,29 +1592,52 @@ def _square_halves(normal, side, t, b):
     return tuple(0.5 * side * (edge @ t + 1j * (edge @ b)) for edge in (tangent, bitangent))
 
 
-def _square_share_over(centre, half_t, half_b, *outlines):
-    """The share of a texel's square (around ``centre``, half edges ``half_t`` and ``half_b``)
-    inside every one of the convex ``outlines`` (4 corners each), all complex coordinates in
-    one plane. Plain complex numbers: a few dozen operations per texel, where numpy's
-    per-call cost would dominate."""
-    polygon = [centre - half_t - half_b, centre + half_t - half_b,
-               centre + half_t + half_b, centre - half_t + half_b]
-    for quad in outlines:
-        turn = 1.0 if _cross2(quad[1] - quad[0], quad[2] - quad[1]) >= 0.0 else -1.0
-        for edge in range(4):   # Sutherland-Hodgman, one edge of the outline at a time
-            a, direction = quad[edge], quad[(edge + 1) % 4] - quad[edge]
-            kept = []
-            for p, q in zip(polygon, polygon[1:] + polygon[:1]):
-                dp, dq = turn * _cross2(direction, p - a), turn * _cross2(direction, q - a)
-                if dp >= 0.0:
-                    kept.append(p)
-                if (dp >= 0.0) != (dq >= 0.0):
-                    kept.append(p + (q - p) * (dp / (dp - dq)))
-            polygon = kept
-            if not polygon:
-                return 0.0
-    twice_area = sum(_cross2(p, q) for p, q in zip(polygon, polygon[1:] + polygon[:1]))
-    return min(0.5 * abs(twice_area) / max(4.0 * abs(_cross2(half_t, half_b)), 1e-30), 1.0)
+def _square(centre, half_t, half_b):
+    """A texel's square around ``centre`` with half edges ``half_t`` and ``half_b``, as
+    complex corners."""
+    return [centre - half_t - half_b, centre + half_t - half_b,
+            centre + half_t + half_b, centre - half_t + half_b]
+
+
+def _triangles_within(triangles, low, high):
+    """The 2D ``triangles`` (T, 3, 2) whose bounds meet the box from ``low`` to ``high``, as
+    lists of complex corners."""
+    meets = ((triangles.min(axis=1) <= high) & (triangles.max(axis=1) >= low)).all(axis=1)
+    return [[complex(x, y) for x, y in triangle] for triangle in triangles[meets]]
+
+
+def _clipped(polygon, outline):
+    """The part of a polygon inside the convex ``outline``, both complex corners in one
+    plane (Sutherland-Hodgman). Plain complex numbers: a few dozen operations per texel,
+    where numpy's per-call cost would dominate."""
+    turn = 1.0 if _twice_signed_area(outline) >= 0.0 else -1.0
+    for a, b in zip(outline, outline[1:] + outline[:1]):
+        if not polygon:
+            break
+        direction, kept = b - a, []
+        for p, q in zip(polygon, polygon[1:] + polygon[:1]):
+            dp, dq = turn * _cross2(direction, p - a), turn * _cross2(direction, q - a)
+            if dp >= 0.0:
+                kept.append(p)
+            if (dp >= 0.0) != (dq >= 0.0):
+                kept.append(p + (q - p) * (dp / (dp - dq)))
+        polygon = kept
+    return polygon
+
+
+def _twice_signed_area(polygon):
+    return sum(_cross2(p, q) for p, q in zip(polygon, polygon[1:] + polygon[:1]))
+
+
+def _area(polygon):
+    return 0.5 * abs(_twice_signed_area(polygon))
+
+
+def _share_under(square, outlines):
+    """The share of a texel's ``square`` under the convex ``outlines``, which do not
+    overlap."""
+    covered = sum(_area(_clipped(square, outline)) for outline in outlines)
+    return min(covered / max(_area(square), 1e-30), 1.0)
 
 
 def _cross2(a, b):

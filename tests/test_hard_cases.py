@@ -348,6 +348,48 @@ def test_light_bouncing_in_a_gap_much_thinner_than_a_texel_makes_no_light(ctx, g
     assert (0.5 <= escaped).all() and (escaped < 0.52).all()
 
 
+def test_a_hexagonal_lamp_a_centimetre_under_a_ceiling_lights_the_share_of_each_square(
+        ctx, gl_clean):
+    """The office's lamp: a hexagon 0.9 m across, 1 cm under the ceiling, 25 cm texels (the
+    gap is 0.04 of a texel), emitting from both faces, its back receiving. A ceiling texel
+    over it shows rho_c L / (1 - rho_c rho_l) (infinite plates) times the share of its square
+    over the lamp, here counted on a 200 x 200 grid of points in the square. The lamp's texels
+    along its slanted edges cover parts of their squares; shooting from rectangles of their
+    area, they left holes: the texels wholly over the lamp showed 0.89 of the closed form."""
+    rho_c, rho_l, radiance = 0.725, 0.78, 25.0
+    angles = np.arange(6) * math.pi / 3
+    hexagon = np.stack([3.0 + 0.45 * np.cos(angles), 2.25 + 0.45 * np.sin(angles),
+                        np.full(6, -0.01)], axis=1)
+    builder = SceneBuilder()
+    w = 1.0
+    builder.quad("ceiling", [(2 - w, 1.25 - w, 0), (2 - w, 3.25 + w, 0), (4 + w, 3.25 + w, 0),
+                             (4 + w, 1.25 - w, 0)], (rho_c,) * 3)
+    centre = hexagon.mean(axis=0)
+    for half in (hexagon[3::-1], hexagon[[0, 5, 4, 3]]):   # two trapezoids facing -z
+        builder.quad("lamp", [tuple(corner) for corner in half], (rho_l,) * 3, (radiance,) * 3,
+                     two_sided=True, receive_back=True)
+    images, samples, ledger, _, _ = solve(builder.build(), ctx, texel_density=4,
+                                          threshold=0.001)
+    values, positions, _ = occupied_texels(images, samples)
+    areas = np.concatenate([s["area"][s["occupied"]] for s in samples])
+    ceiling = np.abs(positions[:, 2]) < 1e-6
+    steps = (np.arange(200) + 0.5) / 200 - 0.5
+    grid = np.stack(np.meshgrid(steps, steps), axis=-1).reshape(-1, 2)
+    outward = np.stack([np.cos(angles + math.pi / 6), np.sin(angles + math.pi / 6)], axis=1)
+    apothem = 0.45 * math.cos(math.pi / 6)
+    shares = []
+    for point, area in zip(positions[ceiling], areas[ceiling]):
+        offsets = point[:2] + grid * math.sqrt(area) - centre[:2]
+        shares.append(((offsets @ outward.T) < apothem).all(axis=1).mean())
+    shares = np.array(shares)
+    closed_form = rho_c * radiance / (1 - rho_c * rho_l)
+    over = shares > 0.2
+    assert (shares == 1.0).sum() >= 4 and (over & (shares < 1.0)).sum() >= 8
+    ratio = values[ceiling][over, 0] / (closed_form * shares[over])
+    assert np.abs(ratio - 1).max() < 0.01
+    assert ledger.imbalance() < 1e-4
+
+
 @pytest.mark.parametrize("turn", [0.0, 0.3])
 def test_a_lamp_a_centimetre_under_a_ceiling_makes_no_light(ctx, gl_clean, turn):
     """A 72 cm square lamp 1 cm under a black ceiling, 25 cm texels (the office's lamps):
