@@ -23,6 +23,8 @@ from .atlas import build_atlas, charted_triangles
 from .errors import GPUMemoryError, SettingsError
 from .gpu import GLObjects, create_context, query_pool, using
 from .scene import SpotLight, SunLight
+from .thin_gaps import (area, clipped, clipped_segment, edge_deficit, length_inside, share_under,
+                        square, square_halves)
 
 # Per texel (see _allocate_page): position + area, irradiance, unshot radiance + texel size
 # (RGBA32F, 16 B each: sums over thousands of shots), albedo + surface number (RGBA16, 8 B:
@@ -61,12 +63,11 @@ SMOOTH_SURFACE_DEGREES = 40.0
 SANDWICH_GAP = 0.1
 # A surface rectangle (u min, u max, v min, v max) that holds no point.
 NO_SURFACE = (1.0, -1.0, 1.0, -1.0)
-# Within a gap height or two of a thin gap's open edge its light falls off (the office's
-# lamps 1 cm under the ceiling, at 25 cm texels: Cycles has 0.55 of the middle's light 1.5 cm
-# in). In a gap under this share of a texel that band is a small part of a texel, and a
-# texel across it shows the gap's light at its sample point; in a wider one, its square's
-# share (_close_thin_gap).
-POINT_GAP = 0.01
+# A texel across a thin gap shows the mean light over the middle of its square, this share of
+# its side across: as Cycles bakes a texel (its samples jitter over half a texel; a baked step
+# of emission 0.1 of a texel left of a texel's centre measured 0.70, where the whole square
+# gives 0.6) (_close_thin_gap).
+SHOWN_SQUARE = 0.5
 # The regions: the first arg-max pyramid level with at most this many texels.
 SELECTION_REGIONS = 1024
 # What a shooter reads of its block: (attachment of _Page.blocks, components).
@@ -479,7 +480,8 @@ class Solver:
         self._points_vao = gl.vertex_array(self._programs["take"],
                                            [(self._points_vbo, "2f 4f", "in_texel", "in_taken")])
         self._receiving_texels = None   # per page, _Texels, read at the first thin gap
-        self._page_triangles = None     # per page, its triangles' texel and world corners
+        self._page_triangles = None     # per page, its triangles' texel and world corners,
+                                        # open edges and texel bounds (_lit_by)
         self._lit_polygons = {}         # (page, x0, y0, x1, y1) -> what those texels cover
         # Thin gaps' receivers (_close_thin_gap), W: the irradiance they show times their area,
         # its part they absorb (as the maps would count it), and what really arrived.
@@ -1159,27 +1161,24 @@ class Solver:
         of albedo rho_r over a shooter of albedo rho_s shows pi L / (1 - rho_r rho_s) and
         reflects none of it out. What arrives is pi L times the share of its square under what
         the shooter's texels cover (_lit_by: the shooters of a surface tile it exactly, where
-        their quads, rectangles of their texels' area, leave holes along a slanted edge). In a
-        gap under POINT_GAP of the texel it shows that over the share of its square over the
-        surface: the light at its sample point, as texels show elsewhere. In a wider one, the
-        share of its square, which measured closer to Cycles there (BENCHMARKS.md)."""
+        their quads, rectangles of their texels' area, leave holes along a slanted edge). What
+        it shows is the share of the middle of its square (SHOWN_SQUARE) under them, less the
+        band along the surface's open edges where the gap's light leaks out."""
         t, b, n = shooter.frame.T
         centre = shooter.centre
-        lit = [(polygon - centre) @ np.stack([t, b], axis=1) for polygon in self._lit_by(shooter)]
-        if not lit:
+        plane = np.stack([t, b], axis=1)
+        polygons, segments = self._lit_by(shooter)
+        if not polygons:
             return
+        lit = [(polygon - centre) @ plane for polygon in polygons]
         corners = np.concatenate(lit)
         reach = float(np.linalg.norm(corners, axis=1).max())   # in_near_field()
         low, high = corners.min(axis=0), corners.max(axis=0)
-        lit = [[complex(x, y) for x, y in polygon] for polygon in lit]   # _clipped()
+        # As complex coordinates along t and b (thin_gaps).
+        lit = [[complex(x, y) for x, y in polygon] for polygon in lit]
+        open_edges = [tuple(complex(x, y) for x, y in (segment - centre) @ plane)
+                      for segment in segments]
         u_min, u_max, v_min, v_max = shooter.extent
-        # The surface's triangles in the shooter's plane facing its way (a bent surface's
-        # others face elsewhere; a sheet's back is the same surface), along t and b.
-        triangles = self._corners_of(shooter.surface) - centre
-        texel_side = math.sqrt(shooter.area / len(shooter.texels))
-        facing = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]) @ n
-        flat = (np.abs(triangles @ n).max(axis=1) < 0.25 * texel_side) & (facing > 0.0)
-        triangles = np.stack([triangles[flat] @ t, triangles[flat] @ b], axis=-1)
         for page, texels in zip(self._pages, self._texels_on_pages()):
             near = texels.near(centre, reach)
             offsets = texels.position[near] - centre
@@ -1196,68 +1195,94 @@ class Solver:
             if not len(inside):
                 continue
             chosen = near[inside]
-            at_point = height[inside] < POINT_GAP * side[inside]
-            squares = [_square(point, half_t, half_b) for point, half_t, half_b in zip(
-                u[inside] + 1j * v[inside], *_square_halves(normal[inside], side[inside], t, b))]
-            reaching = float(corner[inside].max())
-            over_surface = _triangles_within(
-                triangles, np.array([u[inside].min(), v[inside].min()]) - reaching,
-                np.array([u[inside].max(), v[inside].max()]) + reaching)
-            # The share of each square under the lit polygons; in a gap under POINT_GAP, over
-            # the share of the square over the surface.
-            under = np.array([_share_under(square, lit) for square in squares])
-            over = np.array([_share_under(square, over_surface) if point else 1.0
-                             for square, point in zip(squares, at_point)])
-            shown_share = np.where(at_point, under / np.maximum(over, 1e-6), under)
-            # A texel whose point lies beside the surface, in its rectangle (a hexagonal
-            # lamp's corners), shows none of the gap's light; what reached its square under
-            # the surface stays absorbed in the gap.
-            shown_share[~_over_triangles(u[inside], v[inside], triangles)] = 0.0
+            halves = square_halves(normal[inside], side[inside], t, b)
+            points = u[inside] + 1j * v[inside]
+            under = np.array([share_under(square(point, half_t, half_b), lit)
+                              for point, half_t, half_b in zip(points, *halves)])
+            middles = [square(point, SHOWN_SQUARE * half_t, SHOWN_SQUARE * half_b)
+                       for point, half_t, half_b in zip(points, *halves)]
+            shown_share = np.array([share_under(middle, lit) for middle in middles])[:, None]
             albedo = texels.albedo[chosen].astype(np.float64)
-            area = texels.area[chosen, None].astype(np.float64)
             # Two albedos of 1 would keep the light for ever: at most 1,000 times.
-            bounces = 1.0 / np.maximum(1.0 - albedo * shooter.albedo, 1e-3)
-            shown = (math.pi * shooter.radiance * shown_share[:, None] * bounces).astype(np.float32)
+            kept = np.minimum(albedo * shooter.albedo, 0.999)
+            if open_edges:
+                # Along an open edge the band where the light leaks out (thin_gaps).
+                deficit = np.vectorize(lambda kept_share: edge_deficit(round(kept_share, 3)))(kept)
+                open_share = np.array([length_inside(open_edges, middle) / area(middle)
+                                       for middle in middles])
+                shown_share = np.maximum(
+                    shown_share - (height[inside] * open_share)[:, None] * deficit, 0.0)
+            texel_area = texels.area[chosen, None].astype(np.float64)
+            shown = (math.pi * shooter.radiance * shown_share / (1.0 - kept)).astype(np.float32)
             self._add_irradiance(page, texels.xy[chosen], shown)
-            self._gap_shown_received += (shown * area).sum(axis=0)
-            self._gap_shown_absorbed += ((1.0 - albedo) * shown * area).sum(axis=0)
-            self._gap_arrived += (math.pi * shooter.radiance * under[:, None] * area).sum(axis=0)
+            self._gap_shown_received += (shown * texel_area).sum(axis=0)
+            self._gap_shown_absorbed += ((1.0 - albedo) * shown * texel_area).sum(axis=0)
+            self._gap_arrived += (math.pi * shooter.radiance * under[:, None] * texel_area).sum(axis=0)
 
     def _lit_by(self, shooter):
-        """The world polygons a shooter's texels cover: the triangles on its page clipped to
-        its texels' rectangle in the lightmap (texel i spans [i, i + 1)), each mapped back to
-        the world by its own affine map. Blocks are shot many times: once per rectangle."""
+        """What a shooter's texels cover: world polygons (the triangles on its page clipped to
+        its texels' rectangle in the lightmap, texel i spanning [i, i + 1), each mapped back to
+        the world by its own affine map) and world segments (the open edges of its surface
+        among them, _open_edges). Blocks are shot many times: once per rectangle."""
         page = self._pages.index(shooter.page)
         (x0, y0), (x1, y1) = shooter.texels.min(axis=0), shooter.texels.max(axis=0) + 1
         key = (page, int(x0), int(y0), int(x1), int(y1))
-        polygons = self._lit_polygons.get(key)
-        if polygons is not None:
-            return polygons
+        if key in self._lit_polygons:
+            return self._lit_polygons[key]
         if self._page_triangles is None:
             atlas = self.atlas
             corners = self.scene.vertices[self.scene.triangles[atlas.triangles]]
-            self._page_triangles = [(atlas.texels[on], corners[on])
-                                    for on in (atlas.page == index
-                                               for index in range(atlas.page_count))]
-        texels, corners = self._page_triangles[page]
-        meets = np.nonzero((texels[..., 0].min(axis=1) < x1) & (texels[..., 0].max(axis=1) > x0)
-                           & (texels[..., 1].min(axis=1) < y1)
-                           & (texels[..., 1].max(axis=1) > y0))[0]
+            open_edges = self._open_edges()
+            self._page_triangles = [
+                (atlas.texels[on], corners[on], open_edges[on], atlas.texels[on].min(axis=1),
+                 atlas.texels[on].max(axis=1))
+                for on in (atlas.page == index for index in range(atlas.page_count))]
+        texels, corners, open_edges, low, high = self._page_triangles[page]
+        meets = np.nonzero((low[:, 0] < x1) & (high[:, 0] > x0)
+                           & (low[:, 1] < y1) & (high[:, 1] > y0))[0]
         rectangle = [complex(x0, y0), complex(x1, y0), complex(x1, y1), complex(x0, y1)]
-        polygons = []
+        # An open edge often lies on the texels' outer side (xatlas fits some charts to whole
+        # texels): a hair wider, so that rounding keeps it.
+        wider = [corner + complex(sx, sy) * 1e-6 for corner, (sx, sy)
+                 in zip(rectangle, ((-1, -1), (1, -1), (1, 1), (-1, 1)))]
+        polygons, segments = [], []
         for triangle in meets:
             uv, points = texels[triangle], corners[triangle]
-            edges = (uv[1:] - uv[0]).T                        # columns: the texel-space edges
-            if abs(np.linalg.det(edges)) < 1e-12:
+            if abs(_cross2d(uv[1] - uv[0], uv[2] - uv[0])) < 1e-12:
                 continue
-            piece = _clipped([complex(x, y) for x, y in uv], rectangle)
+            outline = [complex(x, y) for x, y in uv]
+            piece = clipped(outline, rectangle)
             if len(piece) < 3:
                 continue
-            offsets = np.array([[p.real, p.imag] for p in piece]) - uv[0]
-            weights = np.linalg.solve(edges, offsets.T).T     # along the triangle's two edges
-            polygons.append(points[0] + weights @ (points[1:] - points[0]))
-        self._lit_polygons[key] = polygons
-        return polygons
+            polygons.append(_texels_to_world(piece, uv, points))
+            for corner in np.nonzero(open_edges[triangle])[0]:
+                part = clipped_segment(outline[corner], outline[(corner + 1) % 3], wider)
+                if part is not None:
+                    segments.append(_texels_to_world(part, uv, points))
+        self._lit_polygons[key] = polygons, segments
+        return polygons, segments
+
+    def _open_edges(self):
+        """Per charted triangle, whether each edge (corner i to i + 1) is open: no other
+        triangle of its surface, on the same side of the sheet, shares it. A thin gap's light
+        leaks out there (thin_gaps.edge_deficit)."""
+        scene, atlas = self.scene, self.atlas
+        ends = np.round(scene.vertices[scene.triangles[atlas.triangles]] / self._epsilon)
+        ends = ends.astype(np.int64)
+        starts, stops = ends, np.roll(ends, -1, axis=1)                      # (C, 3, 3)
+        # Each edge's two ends in one order: the lesser (lexicographically) first.
+        later = np.zeros(starts.shape[:2], dtype=bool)
+        for axis in (2, 1, 0):
+            later = np.where(starts[..., axis] == stops[..., axis], later,
+                             starts[..., axis] > stops[..., axis])
+        first = np.where(later[..., None], stops, starts)
+        second = np.where(later[..., None], starts, stops)
+        back = (scene.back_of[atlas.triangles] >= 0 if scene.back_of is not None
+                else np.zeros(len(atlas.triangles), dtype=bool))
+        sheet = np.repeat((2 * self._surfaces[atlas.triangles] + back)[:, None, None], 3, axis=1)
+        keys = np.concatenate([sheet, first, second], axis=2).reshape(-1, 7)
+        _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+        return (counts[inverse.ravel()] == 1).reshape(-1, 3)
 
     def _texels_on_pages(self):
         """Per page, its receiving texels (_Texels), read back once."""
@@ -1573,83 +1598,28 @@ def _decode_normals(stored):
     return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
 
 
-def _over_triangles(u, v, triangles):
-    """Whether each point (u, v) lies in one of the 2D ``triangles`` (T, 3, 2)."""
-    point = np.stack([u, v], axis=1)[:, None, None, :]                       # (N, 1, 1, 2)
-    a, b = triangles[None], np.roll(triangles, -1, axis=1)[None]             # (1, T, 3, 2)
-    sides = ((b[..., 0] - a[..., 0]) * (point[..., 1] - a[..., 1])
-             - (b[..., 1] - a[..., 1]) * (point[..., 0] - a[..., 0]))         # (N, T, 3)
-    return ((sides >= 0.0).all(axis=2) | (sides <= 0.0).all(axis=2)).any(axis=1)
-
-
-def _square_halves(normal, side, t, b):
-    """Half of each texel's square edges (N,) x 2, along the shaders' tangent_of() of its
-    ``normal`` and the bitangent, as complex coordinates along t and b."""
-    axis = np.eye(3)[np.argmin(np.abs(normal), axis=1)]
-    tangent = axis - normal * (axis * normal).sum(axis=1, keepdims=True)
-    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
-    bitangent = np.cross(normal, tangent)
-    return tuple(0.5 * side * (edge @ t + 1j * (edge @ b)) for edge in (tangent, bitangent))
-
-
-def _square(centre, half_t, half_b):
-    """A texel's square around ``centre`` with half edges ``half_t`` and ``half_b``, as
-    complex corners."""
-    return [centre - half_t - half_b, centre + half_t - half_b,
-            centre + half_t + half_b, centre - half_t + half_b]
-
-
-def _triangles_within(triangles, low, high):
-    """The 2D ``triangles`` (T, 3, 2) whose bounds meet the box from ``low`` to ``high``, as
-    lists of complex corners."""
-    meets = ((triangles.min(axis=1) <= high) & (triangles.max(axis=1) >= low)).all(axis=1)
-    return [[complex(x, y) for x, y in triangle] for triangle in triangles[meets]]
-
-
-def _clipped(polygon, outline):
-    """The part of a polygon inside the convex ``outline``, both complex corners in one
-    plane (Sutherland-Hodgman). Plain complex numbers: a few dozen operations per texel,
-    where numpy's per-call cost would dominate."""
-    turn = 1.0 if _twice_signed_area(outline) >= 0.0 else -1.0
-    for a, b in zip(outline, outline[1:] + outline[:1]):
-        if not polygon:
-            break
-        direction, kept = b - a, []
-        for p, q in zip(polygon, polygon[1:] + polygon[:1]):
-            dp, dq = turn * _cross2(direction, p - a), turn * _cross2(direction, q - a)
-            if dp >= 0.0:
-                kept.append(p)
-            if (dp >= 0.0) != (dq >= 0.0):
-                kept.append(p + (q - p) * (dp / (dp - dq)))
-        polygon = kept
-    return polygon
-
-
-def _twice_signed_area(polygon):
-    return sum(_cross2(p, q) for p, q in zip(polygon, polygon[1:] + polygon[:1]))
-
-
-def _area(polygon):
-    return 0.5 * abs(_twice_signed_area(polygon))
-
-
-def _share_under(square, outlines):
-    """The share of a texel's ``square`` under the convex ``outlines``, which do not
-    overlap."""
-    covered = sum(_area(_clipped(square, outline)) for outline in outlines)
-    return min(covered / max(_area(square), 1e-30), 1.0)
-
-
-def _cross2(a, b):
-    """Twice the signed area two complex numbers span as plane vectors."""
-    return a.real * b.imag - a.imag * b.real
-
-
 def _tangent_of(n):
     """The shaders' tangent_of() (texel_maps.glsl): along the world axis least along n."""
     axis = np.eye(3)[int(np.argmin(np.abs(n)))]
     t = axis - n * (axis @ n)
     return t / np.linalg.norm(t)
+
+
+def _cross2d(a, b):
+    return a[0] * b[1] - a[1] * b[0]
+
+
+def _texels_to_world(texel_points, uv, corners):
+    """Complex texel-space points of a triangle (its corners ``uv`` in texels, ``corners`` in
+    the world) in the world, by its affine map. Plain arithmetic: numpy's small solves and
+    products wait on its threads, which contend with llvmpipe's."""
+    (u0, v0), (u1, v1), (u2, v2) = uv
+    det = (u1 - u0) * (v2 - v0) - (u2 - u0) * (v1 - v0)
+    offsets = [(point.real - u0, point.imag - v0) for point in texel_points]
+    first = np.array([(du * (v2 - v0) - dv * (u2 - u0)) / det for du, dv in offsets])
+    second = np.array([(dv * (u1 - u0) - du * (v1 - v0)) / det for du, dv in offsets])
+    return (corners[0] + first[:, None] * (corners[1] - corners[0])
+            + second[:, None] * (corners[2] - corners[0]))
 
 
 def _lightmap_tangent(texels, positions, n):

@@ -1,5 +1,6 @@
 """Closed-form form factors (../shared/reference/truths.md), in double precision, written
 independently of the solver's GLSL."""
+import functools
 import math
 
 import numpy as np
@@ -76,3 +77,35 @@ def polygon_form_factors(points, normals, polygon):
         total += np.arctan2(s, (a * b).sum(axis=1)) * (normals * g).sum(axis=1) / np.maximum(s, 1e-300)
     coplanar = np.abs((points - polygon[0]) @ plane) < 1e-6
     return np.where(coplanar, 0.0, np.abs(total) / (2 * math.pi))
+
+
+def strip_form_factor(s0, s1):
+    """Differential element under an infinite strip of a parallel plane at unit height, from
+    s0 to s1 across it (the limit of parallel_rectangle_form_factor along the strip)."""
+    return 0.5 * (s1 / np.sqrt(s1 * s1 + 1) - s0 / np.sqrt(s0 * s0 + 1))
+
+
+@functools.lru_cache(maxsize=None)
+def gap_edge_deficit(p, cell=0.1, reach=60.0):
+    """How much light a plane loses across the open edge of a facing half-plane at unit height
+    that emits 1 (albedo product p: the plane reflects, the half-plane reflects it back),
+    integrated across the edge relative to the infinite plates' 1 / (1 - p): the light missing
+    inside, less the light leaking out beside it. Uniform cells over +-reach, Neumann series
+    (bounce after bounce) until it settles; beyond reach the plates' values."""
+    edges = np.arange(-reach, reach + cell / 2, cell)
+    x = 0.5 * (edges[1:] + edges[:-1])
+    shooter = x > 0
+    to_shooter = strip_form_factor(edges[None, :-1] - x[:, None], edges[None, 1:] - x[:, None])
+    plates = 1 / (1 - p)
+    beyond = reach - x
+    outer = 0.5 * (1 - beyond / np.sqrt(beyond * beyond + 1))   # beyond reach, seen from x
+    radiosity = np.ones(shooter.sum())
+    irradiance = np.zeros_like(x)
+    for _ in range(10000):
+        previous = irradiance
+        irradiance = to_shooter[:, shooter] @ radiosity + outer * plates
+        radiosity = 1 + p * (to_shooter[shooter] @ irradiance + outer[shooter] * plates)
+        if np.abs(irradiance - previous).max() < 1e-10:
+            break
+    lit = irradiance / plates
+    return float((1 - lit[shooter]).sum() * cell - lit[~shooter].sum() * cell)
