@@ -1241,10 +1241,6 @@ class Solver:
         meets = np.nonzero((low[:, 0] < x1) & (high[:, 0] > x0)
                            & (low[:, 1] < y1) & (high[:, 1] > y0))[0]
         rectangle = [complex(x0, y0), complex(x1, y0), complex(x1, y1), complex(x0, y1)]
-        # An open edge often lies on the texels' outer side (xatlas fits some charts to whole
-        # texels): a hair wider, so that rounding keeps it.
-        wider = [corner + complex(sx, sy) * 1e-6 for corner, (sx, sy)
-                 in zip(rectangle, ((-1, -1), (1, -1), (1, 1), (-1, 1)))]
         polygons, segments = [], []
         for triangle in meets:
             uv, points = texels[triangle], corners[triangle]
@@ -1256,9 +1252,15 @@ class Solver:
                 continue
             polygons.append(_texels_to_world(piece, uv, points))
             for corner in np.nonzero(open_edges[triangle])[0]:
-                part = clipped_segment(outline[corner], outline[(corner + 1) % 3], wider)
+                a, b = outline[corner], outline[(corner + 1) % 3]
+                # An open edge often lies on its texels' outer side (xatlas fits some charts to
+                # whole texels), a rounding error to either side: it belongs to the texels of
+                # its triangle, so it is clipped a thousandth of a texel inside the triangle.
+                inward = (b - a) * (1j if _cross2d(uv[1] - uv[0], uv[2] - uv[0]) > 0 else -1j)
+                inward *= 1e-3 / abs(inward)
+                part = clipped_segment(a + inward, b + inward, rectangle)
                 if part is not None:
-                    segments.append(_texels_to_world(part, uv, points))
+                    segments.append(_texels_to_world([end - inward for end in part], uv, points))
         self._lit_polygons[key] = polygons, segments
         return polygons, segments
 
