@@ -30,6 +30,7 @@ def run(args):
     snapshots = Snapshots(time.perf_counter())
     solver = Solver(load_scene(args.scene), Settings(texel_density=args.density,
                                                      threshold=args.threshold,
+                                                     ambient=args.ambient,
                                                      max_shots=1_000_000), ctx=ctx)
     while solver.step():
         snapshots.after_step(solver)
@@ -107,6 +108,8 @@ def main():
     bake.add_argument("--scene", required=True)
     bake.add_argument("--density", type=float, required=True)
     bake.add_argument("--threshold", type=float, default=0.002)
+    bake.add_argument("--ambient", action="store_true",
+                      help="add the unshot remainder as uniform ambient light (Settings.ambient)")
     bake.add_argument("--output", type=Path, required=True)
     check = commands.add_parser("compare")
     check.add_argument("--reference", type=Path, required=True)

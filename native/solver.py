@@ -23,8 +23,8 @@ from .atlas import build_atlas, charted_triangles
 from .errors import GPUMemoryError, SettingsError
 from .gpu import GLObjects, create_context, query_pool, using
 from .scene import SpotLight, SunLight
-from .thin_gaps import (area, clipped, clipped_segment, edge_deficit, length_inside, share_under,
-                        square, square_halves)
+from .thin_gaps import (area, band_cells, chord_lengths, clipped, clipped_segment, edge_band,
+                        share_under, square, square_halves)
 
 # Per texel (see _allocate_page): position + area, irradiance, unshot radiance + texel size
 # (RGBA32F, 16 B each: sums over thousands of shots), albedo + surface number (RGBA16, 8 B:
@@ -1176,8 +1176,11 @@ class Solver:
         low, high = corners.min(axis=0), corners.max(axis=0)
         # As complex coordinates along t and b (thin_gaps).
         lit = [[complex(x, y) for x, y in polygon] for polygon in lit]
-        open_edges = [tuple(complex(x, y) for x, y in (segment - centre) @ plane)
-                      for segment in segments]
+        open_edges = []
+        for segment in segments:   # each with the surface on its left
+            start, end, inner = (complex(x, y) for x, y in (segment - centre) @ plane)
+            left = ((end - start).conjugate() * (inner - start)).imag > 0.0
+            open_edges.append((start, end) if left else (end, start))
         u_min, u_max, v_min, v_max = shooter.extent
         for page, texels in zip(self._pages, self._texels_on_pages()):
             near = texels.near(centre, reach)
@@ -1201,17 +1204,20 @@ class Solver:
                               for point, half_t, half_b in zip(points, *halves)])
             middles = [square(point, SHOWN_SQUARE * half_t, SHOWN_SQUARE * half_b)
                        for point, half_t, half_b in zip(points, *halves)]
-            shown_share = np.array([share_under(middle, lit) for middle in middles])[:, None]
+            shown_share = np.repeat([[share_under(middle, lit)] for middle in middles], 3, axis=1)
             albedo = texels.albedo[chosen].astype(np.float64)
             # Two albedos of 1 would keep the light for ever: at most 1,000 times.
             kept = np.minimum(albedo * shooter.albedo, 0.999)
             if open_edges:
-                # Along an open edge the band where the light leaks out (thin_gaps).
-                deficit = np.vectorize(lambda kept_share: edge_deficit(round(kept_share, 3)))(kept)
-                open_share = np.array([length_inside(open_edges, middle) / area(middle)
-                                       for middle in middles])
-                shown_share = np.maximum(
-                    shown_share - (height[inside] * open_share)[:, None] * deficit, 0.0)
+                # Along an open edge the band where the light leaks out (thin_gaps.edge_band),
+                # summed over the middle of the square chord by chord.
+                offsets, widths = band_cells()
+                for row, (middle, gap) in enumerate(zip(middles, height[inside])):
+                    chords = sum(chord_lengths(middle, start, end, offsets * gap)
+                                 for start, end in open_edges) * widths * gap / area(middle)
+                    shown_share[row] -= [(edge_band(round(float(kept_share), 3)) * chords).sum()
+                                         for kept_share in kept[row]]
+                shown_share = np.clip(shown_share, 0.0, 1.0)
             texel_area = texels.area[chosen, None].astype(np.float64)
             shown = (math.pi * shooter.radiance * shown_share / (1.0 - kept)).astype(np.float32)
             self._add_irradiance(page, texels.xy[chosen], shown)
@@ -1223,7 +1229,8 @@ class Solver:
         """What a shooter's texels cover: world polygons (the triangles on its page clipped to
         its texels' rectangle in the lightmap, texel i spanning [i, i + 1), each mapped back to
         the world by its own affine map) and world segments (the open edges of its surface
-        among them, _open_edges). Blocks are shot many times: once per rectangle."""
+        among them, _open_edges: their two ends and a point a texel inside). Blocks are shot
+        many times: once per rectangle."""
         page = self._pages.index(shooter.page)
         (x0, y0), (x1, y1) = shooter.texels.min(axis=0), shooter.texels.max(axis=0) + 1
         key = (page, int(x0), int(y0), int(x1), int(y1))
@@ -1260,7 +1267,10 @@ class Solver:
                 inward *= 1e-3 / abs(inward)
                 part = clipped_segment(a + inward, b + inward, rectangle)
                 if part is not None:
-                    segments.append(_texels_to_world([end - inward for end in part], uv, points))
+                    # Its two ends and a point inside the triangle, which tells its side.
+                    ends = [end - inward for end in part]
+                    segments.append(_texels_to_world(
+                        ends + [0.5 * (ends[0] + ends[1]) + 1e3 * inward], uv, points))
         self._lit_polygons[key] = polygons, segments
         return polygons, segments
 

@@ -7,10 +7,12 @@ import math
 
 import numpy as np
 
-# The band's cells (edge_deficit): the finest, at the edge, in gap heights, and how much each
-# next one grows.
+# The band's cells (edge_band): the finest, at the edge, in gap heights, how much each next
+# one grows, and how far they reach each way (the band widens like 1 / sqrt(1 - p): 200 gap
+# heights hold it for p = 0, 6,325 for p = 0.999).
 BAND_FINEST_CELL = 0.02
 BAND_CELL_GROWTH = 1.08
+BAND_REACH = 6400.0
 
 
 def square(centre, half_t, half_b):
@@ -78,36 +80,55 @@ def share_under(texel_square, outlines):
     return min(covered / max(area(texel_square), 1e-30), 1.0)
 
 
-def length_inside(segments, outline):
-    """The total length of the segments [(a, b)] inside the convex ``outline``."""
-    total = 0.0
-    for a, b in segments:
-        part = clipped_segment(a, b, outline)
-        if part is not None:
-            total += abs(part[1] - part[0])
-    return total
+def chord_lengths(polygon, start, end, offsets):
+    """The lengths of the chords of a convex polygon parallel to the segment from ``start``
+    to ``end``, at ``offsets`` (an array) to its left, within the strip across the segment."""
+    length = abs(end - start)
+    turn = (end - start) / length
+    # Along the segment and across it, to its left: x + iy.
+    local = clipped([(corner - start) / turn for corner in polygon],
+                    [complex(0.0, -1e30), complex(length, -1e30), complex(length, 1e30),
+                     complex(0.0, 1e30)])
+    low, high = np.full(len(offsets), np.inf), np.full(len(offsets), -np.inf)
+    for p, q in zip(local, local[1:] + local[:1]):
+        if p.imag == q.imag:
+            continue
+        at = (offsets - p.imag) / (q.imag - p.imag)
+        crossing = (at >= 0.0) & (at <= 1.0)
+        x = p.real + at * (q.real - p.real)
+        low = np.where(crossing, np.minimum(low, x), low)
+        high = np.where(crossing, np.maximum(high, x), high)
+    return np.where(high > low, high - low, 0.0)
+
+
+def band_cells():
+    """The band's cells across an open edge, in gap heights: centres (positive inside, under
+    the shooter) and widths. Wide enough for albedo products up to 0.999."""
+    return _BAND_CELLS
+
+
+def _band_cell_edges():
+    steps, cell = [0.0], BAND_FINEST_CELL
+    while steps[-1] < BAND_REACH:
+        steps.append(steps[-1] + cell)
+        cell *= BAND_CELL_GROWTH
+    inside = np.array(steps)
+    return inside, np.concatenate([-inside[:0:-1], inside])
 
 
 @functools.lru_cache(maxsize=None)
-def edge_deficit(p):
-    """The light a straight open edge of a thin gap loses, in gap heights: how much less than
-    the infinite plates' value the receiver's plane gets, integrated across the edge (the band
-    inside it darker, less the light leaking out beside it), relative to that value, for
-    receiver and shooter albedos whose product is ``p``.
+def edge_band(p):
+    """Across a straight open edge of a thin gap, per band cell: the share of the infinite
+    plates' light the receiver's plane lacks there (1 - E / E_plates inside the edge, minus
+    E / E_plates outside it: the light leaking out), for receiver and shooter albedos whose
+    product is ``p``.
 
     Between the receiver's plane and a shooter's half-plane (s > 0) a gap height of 1 away,
     the shooter emitting 1: E(x) = int K(x - y) B(y) dy over y > 0 and B(y) = 1 + p int
     K(y - x) E(x) dx over all x, K(s) = 1/2 (s^2 + 1)^(-3/2) (Lambert's law between parallel
     planes, integrated along the edge); far inside, E = 1 / (1 - p). Solved on cells that grow
-    away from the edge, each cell's kernel integrated exactly. 0 for p = 0: the direct light
-    missing inside the edge falls just outside it."""
-    far = 200.0 / math.sqrt(1.0 - p)   # the band widens like 1 / sqrt(1 - p)
-    steps, cell = [0.0], BAND_FINEST_CELL
-    while steps[-1] < far:
-        steps.append(steps[-1] + cell)
-        cell *= BAND_CELL_GROWTH
-    inside = np.array(steps)
-    receiver = np.concatenate([-inside[:0:-1], inside])   # cell edges, both sides
+    away from the edge, each cell's kernel integrated exactly."""
+    inside, receiver = _BAND_EDGES
     x, y = 0.5 * (receiver[1:] + receiver[:-1]), 0.5 * (inside[1:] + inside[:-1])
     seen = lambda s: 0.5 * s / np.sqrt(s * s + 1.0)     # int K from 0 to s
     to_shooter = seen(inside[None, 1:] - x[:, None]) - seen(inside[None, :-1] - x[:, None])
@@ -121,8 +142,15 @@ def edge_deficit(p):
     known = np.concatenate([(0.5 - seen(inside[-1] - x)) * plates,
                             1.0 + p * (0.5 - seen(receiver[-1] - y)) * plates])
     lit = np.linalg.solve(system, known)[:count_x] / plates
-    widths = np.diff(receiver)
-    return float(((1.0 - lit) * widths)[x > 0.0].sum() - (lit * widths)[x < 0.0].sum())
+    return np.where(x > 0.0, 1.0 - lit, -lit)
+
+
+def edge_deficit(p):
+    """The light a straight open edge of a thin gap loses, in gap heights: edge_band summed
+    across the edge. 0 for p = 0: the direct light missing inside the edge falls just outside
+    it."""
+    centres, widths = band_cells()
+    return float((edge_band(p) * widths).sum())
 
 
 def _turn(outline):
@@ -136,3 +164,7 @@ def _twice_signed_area(polygon):
 def _cross(a, b):
     """Twice the signed area two complex numbers span as plane vectors."""
     return a.real * b.imag - a.imag * b.real
+
+
+_BAND_EDGES = _band_cell_edges()
+_BAND_CELLS = (0.5 * (_BAND_EDGES[1][1:] + _BAND_EDGES[1][:-1]), np.diff(_BAND_EDGES[1]))

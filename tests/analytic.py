@@ -86,12 +86,12 @@ def strip_form_factor(s0, s1):
 
 
 @functools.lru_cache(maxsize=None)
-def gap_edge_deficit(p, cell=0.1, reach=60.0):
-    """How much light a plane loses across the open edge of a facing half-plane at unit height
-    that emits 1 (albedo product p: the plane reflects, the half-plane reflects it back),
-    integrated across the edge relative to the infinite plates' 1 / (1 - p): the light missing
-    inside, less the light leaking out beside it. Uniform cells over +-reach, Neumann series
-    (bounce after bounce) until it settles; beyond reach the plates' values."""
+def gap_edge_profile(p, cell=0.1, reach=60.0):
+    """The light on a plane across the open edge of a facing half-plane at unit height that
+    emits 1 (albedo product p: the plane reflects, the half-plane reflects it back), relative
+    to the infinite plates' 1 / (1 - p): (x, share) at cell centres, x > 0 under the
+    half-plane. Uniform cells over +-reach, Neumann series (bounce after bounce) until it
+    settles; beyond reach the plates' values."""
     edges = np.arange(-reach, reach + cell / 2, cell)
     x = 0.5 * (edges[1:] + edges[:-1])
     shooter = x > 0
@@ -107,5 +107,11 @@ def gap_edge_deficit(p, cell=0.1, reach=60.0):
         radiosity = 1 + p * (to_shooter[shooter] @ irradiance + outer[shooter] * plates)
         if np.abs(irradiance - previous).max() < 1e-10:
             break
-    lit = irradiance / plates
-    return float((1 - lit[shooter]).sum() * cell - lit[~shooter].sum() * cell)
+    return x, irradiance / plates
+
+
+def gap_edge_deficit(p, cell=0.1, reach=60.0):
+    """gap_edge_profile's light missing inside the edge, less what leaks out beside it, in
+    gap heights."""
+    x, lit = gap_edge_profile(p, cell, reach)
+    return float((1 - lit[x > 0]).sum() * cell - lit[x < 0].sum() * cell)

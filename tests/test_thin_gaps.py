@@ -6,8 +6,10 @@ import math
 import pytest
 
 import analytic
-from native.thin_gaps import (area, clipped, clipped_segment, edge_deficit, length_inside,
-                              share_under, square)
+import numpy as np
+
+from native.thin_gaps import (area, band_cells, chord_lengths, clipped, clipped_segment,
+                              edge_band, edge_deficit, share_under, square)
 
 UNIT_SQUARE = square(0.5 + 0.5j, 0.5, 0.5j)
 
@@ -28,8 +30,18 @@ def test_segments_are_cut_at_the_outline():
     a, b = clipped_segment(-1 + 0.5j, 2 + 0.5j, UNIT_SQUARE)
     assert abs(b - a) == pytest.approx(1.0)
     assert clipped_segment(-1 + 2j, 2 + 2j, UNIT_SQUARE) is None
-    diagonal = [(-1 - 1j, 2 + 2j), (0.25 + 0j, 0.25 + 0.5j)]
-    assert length_inside(diagonal, UNIT_SQUARE) == pytest.approx(math.sqrt(2) + 0.5)
+
+
+def test_chords_of_a_square_along_a_diagonal_segment():
+    """Chords parallel to the diagonal from (0, 0) to (1, 1), at d to its left: the square's
+    chord there is sqrt(2) - 2 |d|, within the segment's strip all of it."""
+    offsets = np.array([-0.8, -0.5, -0.25, 0.0, 0.3, 0.7])
+    expected = np.clip(math.sqrt(2) - 2 * np.abs(offsets), 0, None)
+    np.testing.assert_allclose(chord_lengths(UNIT_SQUARE, 0j, 1 + 1j, offsets), expected,
+                               atol=1e-12)
+    # A segment along the bottom edge's first half: the strip cuts the chords to 0.5.
+    np.testing.assert_allclose(chord_lengths(UNIT_SQUARE, 0j, 0.5 + 0j, offsets),
+                               np.where((offsets >= 0) & (offsets <= 1), 0.5, 0.0), atol=1e-12)
 
 
 def test_the_strip_form_factor_is_the_long_rectangles():
@@ -47,3 +59,11 @@ def test_without_bounces_an_edge_loses_no_light():
 def test_the_edge_band_matches_the_bounce_after_bounce_solution(p):
     """Measured 0.7-1.2 % apart (the light beyond the other's 60 gap heights)."""
     assert edge_deficit(p) == pytest.approx(analytic.gap_edge_deficit(p), rel=0.02)
+
+
+def test_the_edge_band_across_the_edge_matches_the_bounce_after_bounce_profile():
+    x, lit = analytic.gap_edge_profile(0.5655)
+    centres, _ = band_cells()
+    for at in (-2.0, -0.5, 0.25, 1.0, 3.0):
+        expected = (at > 0) - np.interp(at, x, lit)
+        assert np.interp(at, centres, edge_band(0.5655)) == pytest.approx(expected, abs=0.01)
