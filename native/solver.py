@@ -62,7 +62,7 @@ SMOOTH_SURFACE_DEGREES = 40.0
 # get all its bounces at once (_close_thin_gap).
 SANDWICH_GAP = 0.1
 # A surface rectangle (u min, u max, v min, v max) that holds no point.
-NO_SURFACE = (1.0, -1.0, 1.0, -1.0)
+NO_SURFACE = (1e30, -1e30, 1e30, -1e30)
 # A texel across a thin gap shows the mean light over the middle of its square, this share of
 # its side across: as Cycles bakes a texel (its samples jitter over half a texel; a baked step
 # of emission 0.1 of a texel left of a texel's centre measured 0.70, where the whole square
@@ -1154,8 +1154,9 @@ class Solver:
             self._timed("receivers", self._close_thin_gap, shooter)
 
     def _close_thin_gap(self, shooter):
-        """Light the receivers facing the shooter across a thin gap, their sample points over
-        its surface (the texels the receiver pass left out: receive_patch.frag, sandwiched()),
+        """Light the receivers facing the shooter across a thin gap, their sample points within
+        a texel of its surface's rectangle (the texels the receiver pass left out:
+        receive_patch.frag, sandwiched(); beside the surface, the light leaking out of the gap),
         with all the gap's bounces at once. Between facing surfaces far closer than a texel,
         light shot at a point bounces between the two at that point until absorbed: a receiver
         of albedo rho_r over a shooter of albedo rho_s shows pi L / (1 - rho_r rho_s) and
@@ -1192,7 +1193,8 @@ class Solver:
                 (height > self._epsilon) & (height < SANDWICH_GAP * side)
                 & ((normal * offsets).sum(axis=1) < 0.0) & (normal @ n < -0.99)
                 & (np.linalg.norm(offsets, axis=1) < reach + 2.0 * side)
-                & (u >= u_min) & (u <= u_max) & (v >= v_min) & (v <= v_max)
+                & (u >= u_min - side) & (u <= u_max + side)
+                & (v >= v_min - side) & (v <= v_max + side)
                 & (u + corner >= low[0]) & (u - corner <= high[0])
                 & (v + corner >= low[1]) & (v - corner <= high[1]))[0]
             if not len(inside):

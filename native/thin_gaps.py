@@ -11,7 +11,7 @@ import numpy as np
 # one grows, and how far they reach each way (the band widens like 1 / sqrt(1 - p): 200 gap
 # heights hold it for p = 0, 6,325 for p = 0.999).
 BAND_FINEST_CELL = 0.02
-BAND_CELL_GROWTH = 1.08
+BAND_CELL_GROWTH = 1.04
 BAND_REACH = 6400.0
 
 

@@ -44,16 +44,17 @@ bool in_near_field(vec3 point, float texel_size) {
 }
 
 // A receiver facing the shooter across a gap under u_sandwich_gap of its texel, its sample
-// point over the shooter's surface (a ceiling 0.1 mm over a lamp's back, or 1 cm over an
-// office lamp at 25 cm texels). The solver gives it the gap's light in closed form, all its
+// point within a texel of the shooter's surface rectangle (a ceiling 0.1 mm over a lamp's
+// back, or 1 cm over an office lamp at 25 cm texels, and beside it, where the gap's light
+// leaks out). The solver gives it the gap's light in closed form, all its
 // bounces at once (Solver._close_thin_gap): shot by shot, at its sample point alone, a texel
 // got all of a shooter over the point and none of one beside it, and the gap's light went
 // back and forth for hundreds of shots.
 bool sandwiched(vec3 from_shooter, float height, vec3 normal, float side) {
     vec2 at = vec2(dot(from_shooter, u_frame[0]), dot(from_shooter, u_frame[1]));
     return height < u_sandwich_gap * side && dot(normal, u_frame[2]) < -0.99
-        && all(greaterThanEqual(at, u_surface_extent.xz))
-        && all(lessThanEqual(at, u_surface_extent.yw));
+        && all(greaterThanEqual(at, u_surface_extent.xz - side))
+        && all(lessThanEqual(at, u_surface_extent.yw + side));
 }
 
 vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
