@@ -4,7 +4,10 @@ against a Cycles reference made elsewhere by `bench_equal_error.py --save-refere
     python bench/bench_gpu_curve.py run --scene cornell_box --density 60 --threshold 0.002 \
         --output curve-h100.npz                       # where the GPU is; no Blender needed
     python bench/bench_gpu_curve.py compare --reference reference.npz --snapshots \
-        curve-h100.npz --json bench/results/equal-error-cornell_box-h100.json
+        curve-h100.npz --json all.json               # and --exclude ceiling --json without.json
+    python bench/bench_gpu_curve.py merge all.json without.json \
+        --variant "before=bench/results/equal-error-cornell_box-llvmpipe.json" \
+        --output bench/results/equal-error-cornell_box-h100.json   # for bench/plot.py
 
 The bake is the solver's alone on the exported scene (bench/scenes/<scene>.npz: the same
 triangles, materials and lights the extension exports), so its seconds exclude Blender's
@@ -95,10 +98,31 @@ def compare(args):
         print(f"[{label}] {100 * target:.0f} %: Luxel {luxel_time}, Cycles {cycles_time}")
     result = {"scene": recorded["scene"], "device": {"luxel": str(luxel["device"]),
                                                      "cycles": "CPU (the reference's machine)"},
-              "objects": names, "reference_noise_rel": math.sqrt(noise) / magnitude,
+              "set": label, "objects": names,
+              "reference_noise_rel": math.sqrt(noise) / magnitude,
               "luxel": curve, "cycles": cycles, "equal_error": rows}
     if args.json:
         args.json.write_text(json.dumps(result, indent=2))
+
+
+def merge(args):
+    """One bench_equal_error.py-style result (what plot.equal_error draws) from compare's
+    results per set of objects, with earlier Luxel curves as variants."""
+    sets = {}
+    for path in args.compared:
+        compared = json.loads(path.read_text())
+        label = compared["set"]
+        sets[label] = {key: compared[key] for key in
+                       ("objects", "reference_noise_rel", "cycles", "luxel", "equal_error")}
+        sets[label]["variants"] = {}
+    for spec in args.variant:
+        name, path = spec.split("=", 1)
+        earlier = json.loads(Path(path).read_text())
+        for label, entry in earlier["sets"].items():
+            if label in sets:
+                sets[label]["variants"][name] = {"luxel": entry["luxel"]}
+    args.output.write_text(json.dumps({"scene": compared["scene"], "device": compared["device"],
+                                       "sets": sets}, indent=2))
 
 
 def main():
@@ -116,8 +140,13 @@ def main():
     check.add_argument("--snapshots", type=Path, required=True)
     check.add_argument("--exclude", nargs="*", default=[])
     check.add_argument("--json", type=Path)
+    combine = commands.add_parser("merge")
+    combine.add_argument("compared", type=Path, nargs="+", help="compare's --json results")
+    combine.add_argument("--variant", action="append", default=[],
+                         help="LABEL=an earlier equal-error result: its Luxel curves")
+    combine.add_argument("--output", type=Path, required=True)
     args = parser.parse_args()
-    (run if args.command == "run" else compare)(args)
+    {"run": run, "compare": compare, "merge": merge}[args.command](args)
 
 
 if __name__ == "__main__":
