@@ -1225,7 +1225,8 @@ class Solver:
             self._add_irradiance(page, texels.xy[chosen], shown)
             self._gap_shown_received += (shown * texel_area).sum(axis=0)
             self._gap_shown_absorbed += ((1.0 - albedo) * shown * texel_area).sum(axis=0)
-            self._gap_arrived += (math.pi * shooter.radiance * under[:, None] * texel_area).sum(axis=0)
+            arrived = math.pi * shooter.radiance * under[:, None] * texel_area
+            self._gap_arrived += arrived.sum(axis=0)
 
     def _lit_by(self, shooter):
         """What a shooter's texels cover: world polygons (the triangles on its page clipped to
@@ -1279,7 +1280,7 @@ class Solver:
     def _open_edges(self):
         """Per charted triangle, whether each edge (corner i to i + 1) is open: no other
         triangle of its surface, on the same side of the sheet, shares it. A thin gap's light
-        leaks out there (thin_gaps.edge_deficit)."""
+        leaks out there (thin_gaps.edge_band)."""
         scene, atlas = self.scene, self.atlas
         ends = np.round(scene.vertices[scene.triangles[atlas.triangles]] / self._epsilon)
         ends = ends.astype(np.int64)

@@ -403,9 +403,9 @@ def test_a_hexagonal_lamp_a_centimetre_under_a_ceiling_lights_the_share_of_each_
     over it shows rho_c L / (1 - rho_c rho_l) (infinite plates) times the share of the middle
     of its square, half its side across, over the lamp (as Cycles bakes a texel), less the
     band along the lamp's edges (analytic.gap_edge_profile), counted on grids of points (the
-    band of each edge within its span, as the solver models it). The lamp's texels along its slanted edges cover parts of their squares; shooting
-    from rectangles of their area, they left holes: texels wholly over the lamp showed 0.89
-    of the closed form."""
+    band of each edge within its span, as the solver models it). The lamp's texels along its
+    slanted edges cover parts of their squares; shooting from rectangles of their area, they
+    left holes: texels wholly over the lamp showed 0.89 of the closed form."""
     rho_c, rho_l, radiance = 0.725, 0.78, 25.0
     angles = np.arange(6) * math.pi / 3
     hexagon = np.stack([3.0 + 0.45 * np.cos(angles), 2.25 + 0.45 * np.sin(angles),
