@@ -24,7 +24,7 @@ from .errors import GPUMemoryError, SettingsError
 from .gpu import GLObjects, create_context, query_pool, using
 from .scene import SpotLight, SunLight
 from .thin_gaps import (area, band_cells, chord_lengths, clipped, clipped_segment, edge_band,
-                        share_under, square, square_halves)
+                        share_under, signed_area, square, square_halves)
 
 # Per texel (see _allocate_page): position + area, irradiance, unshot radiance + texel size
 # (RGBA32F, 16 B each: sums over thousands of shots), albedo + surface number (RGBA16, 8 B:
@@ -170,7 +170,6 @@ class _Shooter:
     extent: tuple               # its surface along its frame's t and b (_surface_extent)
                                 # when a receiver may face it across a thin gap, else None
     albedo: np.ndarray          # its texels' mean albedo: what a thin gap's far side bounces
-    surface: int                # its surface's number (0: it does not receive)
 
 
 @dataclass
@@ -1057,8 +1056,7 @@ class Solver:
             radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
             extent=(self._surface_extent(int(surface[strongest]), centre, t, b)
                     if self._thin_gap_near(region, position, normal, texel_size) else None),
-            albedo=(albedo[members] * weights).sum(axis=0) / total_area,
-            surface=int(surface[strongest]))
+            albedo=(albedo[members] * weights).sum(axis=0) / total_area)
 
     def _surface_extent(self, surface, centre, t, b):
         """The rectangle (u min, u max, v min, v max) along t and b from ``centre`` that holds
@@ -1213,9 +1211,9 @@ class Solver:
             if open_edges:
                 # Along an open edge the band where the light leaks out (thin_gaps.edge_band),
                 # summed over the middle of the square chord by chord.
-                offsets, widths = band_cells()
+                cells, widths = band_cells()
                 for row, (middle, gap) in enumerate(zip(middles, height[inside])):
-                    chords = sum(chord_lengths(middle, start, end, offsets * gap)
+                    chords = sum(chord_lengths(middle, start, end, cells * gap)
                                  for start, end in open_edges) * widths * gap / area(middle)
                     shown_share[row] -= [(edge_band(round(float(kept_share), 3)) * chords).sum()
                                          for kept_share in kept[row]]
@@ -1254,9 +1252,10 @@ class Solver:
         polygons, segments = [], []
         for triangle in meets:
             uv, points = texels[triangle], corners[triangle]
-            if abs(_cross2d(uv[1] - uv[0], uv[2] - uv[0])) < 1e-12:
-                continue
             outline = [complex(x, y) for x, y in uv]
+            turn = signed_area(outline)
+            if abs(turn) < 1e-12:
+                continue
             piece = clipped(outline, rectangle)
             if len(piece) < 3:
                 continue
@@ -1266,7 +1265,7 @@ class Solver:
                 # An open edge often lies on its texels' outer side (xatlas fits some charts to
                 # whole texels), a rounding error to either side: it belongs to the texels of
                 # its triangle, so it is clipped a thousandth of a texel inside the triangle.
-                inward = (b - a) * (1j if _cross2d(uv[1] - uv[0], uv[2] - uv[0]) > 0 else -1j)
+                inward = (b - a) * (1j if turn > 0 else -1j)
                 inward *= 1e-3 / abs(inward)
                 part = clipped_segment(a + inward, b + inward, rectangle)
                 if part is not None:
@@ -1618,10 +1617,6 @@ def _tangent_of(n):
     axis = np.eye(3)[int(np.argmin(np.abs(n)))]
     t = axis - n * (axis @ n)
     return t / np.linalg.norm(t)
-
-
-def _cross2d(a, b):
-    return a[0] * b[1] - a[1] * b[0]
 
 
 def _texels_to_world(texel_points, uv, corners):

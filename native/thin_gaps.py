@@ -70,8 +70,13 @@ def clipped_segment(a, b, outline):
     return a + (b - a) * low, a + (b - a) * high
 
 
+def signed_area(polygon):
+    """Its area, positive when its corners run counter-clockwise."""
+    return 0.5 * sum(_cross(p, q) for p, q in zip(polygon, polygon[1:] + polygon[:1]))
+
+
 def area(polygon):
-    return 0.5 * abs(_twice_signed_area(polygon))
+    return abs(signed_area(polygon))
 
 
 def share_under(texel_square, outlines):
@@ -154,11 +159,7 @@ def edge_deficit(p):
 
 
 def _turn(outline):
-    return 1.0 if _twice_signed_area(outline) >= 0.0 else -1.0
-
-
-def _twice_signed_area(polygon):
-    return sum(_cross(p, q) for p, q in zip(polygon, polygon[1:] + polygon[:1]))
+    return 1.0 if signed_area(outline) >= 0.0 else -1.0
 
 
 def _cross(a, b):

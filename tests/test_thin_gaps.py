@@ -9,7 +9,7 @@ import analytic
 import numpy as np
 
 from native.thin_gaps import (area, band_cells, chord_lengths, clipped, clipped_segment,
-                              edge_band, edge_deficit, share_under, square)
+                              edge_band, edge_deficit, share_under, signed_area, square)
 
 UNIT_SQUARE = square(0.5 + 0.5j, 0.5, 0.5j)
 
@@ -19,6 +19,11 @@ def test_a_triangle_over_half_a_square_covers_half():
     # Wound the other way, and reaching past the square.
     assert share_under(UNIT_SQUARE, [[-1 - 1j, 2 + 2j, 2 - 1j]]) == pytest.approx(0.5)
     assert share_under(UNIT_SQUARE, [[2 + 0j, 3 + 0j, 3 + 1j]]) == 0.0
+
+
+def test_the_signed_area_tells_the_winding():
+    assert signed_area(UNIT_SQUARE) == pytest.approx(1.0)
+    assert signed_area(UNIT_SQUARE[::-1]) == pytest.approx(-1.0)
 
 
 def test_clipping_keeps_the_overlap_of_two_squares():
