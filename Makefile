@@ -33,9 +33,10 @@ bake: $(VENV)/.blender
 	$(BIN)/python tools/blender.py -b sample_blends/cornell_box.blend --command luxel bake \
 		--density 100 --threshold 0.01 --output out/cornell --preview out/cornell/preview.png
 
-# The tests that load Blender run in a process of their own: once Mesa's GL, used after
-# Blender in the same process, aborted in a later test (cause unknown; the deadlock seen in
-# full runs was xatlas's, see native/atlas.py).
+# The tests that load Blender run in a process of their own: Mesa's GL, used after Blender in
+# the same process, aborted in a later test (the deadlock seen in full runs was xatlas's, see
+# native/atlas.py). Importing the repository's package loads no bpy (__init__.py), since
+# pytest imports it as the parent of tests/.
 BLENDER_TESTS := $(shell grep -l blender_session tests/test_*.py)
 
 test: $(VENV)/.dev

@@ -286,6 +286,20 @@ def test_native_never_imports_bpy():
     assert result.stdout.strip() == "ok"
 
 
+def test_importing_the_extension_package_loads_no_bpy():
+    """pytest imports the repository root as the package of tests/; Blender imports it to
+    register the extension. Only register() may load bpy: bpy and Mesa's GL in one test
+    process aborted."""
+    code = ("import importlib.util, sys; "
+            "spec = importlib.util.spec_from_file_location('luxel', '__init__.py', "
+            "submodule_search_locations=['.']); module = importlib.util.module_from_spec(spec); "
+            "sys.modules['luxel'] = module; spec.loader.exec_module(module); "
+            "assert 'bpy' not in sys.modules and callable(module.register); print('ok')")
+    result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "ok"
+
+
 def test_texel_count_follows_area_and_the_object_scale():
     """Texels grow with surface area, not triangle count, and with the object's scale squared."""
     from native import build_atlas
