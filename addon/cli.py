@@ -63,8 +63,9 @@ def _add_bake_options(parser):
                         help="ADAPTIVE refines triangles whose shadowed share is in [MIN, MAX]")
     parser.add_argument("--adaptive-shoot-level", action="store_true",
                         help="weak shooters shoot from coarser blocks")
-    parser.add_argument("--ambient", action="store_true",
-                        help="add the energy left unshot as even ambient light")
+    parser.add_argument("--no-ambient", action="store_true",
+                        help="leave out the ambient term (the bounced light still unshot, "
+                        "spread evenly)")
     parser.add_argument("--shots", type=int, help="stop after this many shots")
     parser.add_argument("--threshold", type=float, help="stop at this unshot energy fraction")
     parser.add_argument("--density", type=float, help="lightmap texels per metre")
@@ -124,8 +125,8 @@ def _apply_bake_options(args, settings):
         settings.subdivision_shadow_min, settings.subdivision_shadow_max = args.shadow_range
     if args.adaptive_shoot_level:
         settings.adaptive_shoot_level = True
-    if args.ambient:
-        settings.ambient = True
+    if args.no_ambient:
+        settings.ambient = False
     if args.shots is not None:
         settings.max_shots = args.shots
     if args.threshold is not None:

@@ -110,9 +110,9 @@ class LuxelSceneSettings(bpy.types.PropertyGroup):
                                        description="Shooters with little unshot energy shoot "
                                        "from coarser blocks of texels: fewer, larger shots")
     ambient: BoolProperty(name="Ambient Term", default=_DEFAULTS.ambient,
-                          description="Add the energy still unshot at the end as even ambient "
-                          "light (an estimate, like the unshot share it stands for): bright "
-                          "closed rooms look converged far sooner")
+                          description="Add the light still unshot after its first bounce as "
+                          "even ambient light (an estimate, like the unshot share it stands "
+                          "for): rooms look converged far sooner")
     neighbour_visibility: BoolProperty(name="Neighbour Visibility",
                                        default=_DEFAULTS.neighbour_visibility,
                                        description="A receiver is visible when any of the 3x3 "

@@ -30,10 +30,10 @@ from native.snapshots import Snapshots
 def run(args):
     ctx = create_context()
     device = device_name(ctx)
-    snapshots = Snapshots(time.perf_counter())
+    snapshots = Snapshots(time.perf_counter(), per_doubling=args.per_doubling)
     solver = Solver(load_scene(args.scene), Settings(texel_density=args.density,
                                                      threshold=args.threshold,
-                                                     ambient=args.ambient,
+                                                     ambient=not args.no_ambient,
                                                      max_shots=1_000_000), ctx=ctx)
     while solver.step():
         snapshots.after_step(solver)
@@ -132,8 +132,10 @@ def main():
     bake.add_argument("--scene", required=True)
     bake.add_argument("--density", type=float, required=True)
     bake.add_argument("--threshold", type=float, default=0.002)
-    bake.add_argument("--ambient", action="store_true",
-                      help="add the unshot remainder as uniform ambient light (Settings.ambient)")
+    bake.add_argument("--per-doubling", type=int, default=2,
+                      help="snapshots per doubling of the shots")
+    bake.add_argument("--no-ambient", action="store_true",
+                      help="leave out the ambient term (Settings.ambient)")
     bake.add_argument("--output", type=Path, required=True)
     check = commands.add_parser("compare")
     check.add_argument("--reference", type=Path, required=True)

@@ -5,26 +5,37 @@ import time
 
 import numpy as np
 
+from .gpu import using
+
 
 class Snapshots:
-    def __init__(self, started):
+    def __init__(self, started, per_doubling=1):
         """``started``: time.perf_counter() when the bake began (before the solver's
-        creation, or before whatever else the caller counts)."""
+        creation, or before whatever else the caller counts). ``per_doubling``: snapshots
+        per doubling of the shots (2: at 1, 2, 3, 4, 6, 8, 11, 16, ...)."""
         self.started = started
         self.masks = None       # per page: (H, W) bool, the occupied texels
         self.shots = []
         self.seconds = []
         self.rgb = []           # per snapshot, per page: (N, 3) float32 of the occupied texels
         self._paused = 0.0
+        self._per_doubling = per_doubling
+        self._step = 0
         self._next = 1
 
     def after_step(self, solver):
-        """Call after each shot: keeps the lightmaps when the shot count reaches 1, 2, 4, ..."""
+        """Call after each shot: keeps the lightmaps when the shot count reaches the next of
+        1, 2, 4, ... (or the finer schedule)."""
         if solver.shots >= self._next and not solver.finished:
             self.take(solver)
-            self._next *= 2
+            while self._next <= solver.shots:
+                self._step += 1
+                self._next = round(2.0 ** (self._step / self._per_doubling))
 
     def take(self, solver):
+        # The GPU finishes the shots queued so far on the bake's clock, not the snapshot's.
+        with using(solver.ctx):
+            solver.ctx.finish()
         began = time.perf_counter()
         pages = solver.result()
         if self.masks is None:

@@ -19,7 +19,7 @@ import time
 import moderngl
 import numpy as np
 
-from .atlas import build_atlas, charted_triangles
+from .atlas import build_atlas, charted_triangles, tight_packing
 from .errors import GPUMemoryError, SettingsError
 from .gpu import GLObjects, create_context, query_pool, using
 from .scene import SpotLight, SunLight
@@ -106,7 +106,7 @@ class Settings:
     subdivision_shadow_max: float = 0.98
     adaptive_shoot_level: bool = False  # weak shooters shoot from coarser blocks (Sec. 5.1)
     shooters_per_selection: int = 8  # shots per GPU read-back; 1 is the paper's one by one
-    ambient: bool = False            # result() adds the unshot remainder as uniform ambient light
+    ambient: bool = True             # result() adds the bounced unshot light as uniform ambient
     profile: bool = False            # wait for the GPU after each phase for exact timings
 
     def validate(self):
@@ -202,6 +202,12 @@ class _Page:
     textures: dict
     pyramid: list = field(default_factory=list)   # (texture, framebuffer) from block level to 1x1
     receivers: object = None   # framebuffer: irradiance, unshot (made after rasterization)
+    # Where the page's texels holding surface sit in Solver.atlas's page of the same number:
+    # flat indices here and there (Solver._in_atlas_layout).
+    to_atlas: tuple = None
+    # Emitting texels not yet shot: flat texel indices (sorted) and their emitted power (W),
+    # zeroed as they shoot (the ambient term leaves direct light out).
+    emission_left: tuple = (np.zeros(0, np.int64), np.zeros((0, 3)))
 
 
 class Solver:
@@ -286,11 +292,12 @@ class Solver:
                 area = position[..., 3]
                 coverage = np.zeros_like(area)
                 np.divide(area, texel_size ** 2, out=coverage, where=texel_size > 0)
-                samples.append({
+                samples.append({name: self._in_atlas_layout(page, value) for name, value in {
                     "position": position[..., :3],
                     "normal": _decode_normals(self._read(page.textures["normal"])),
                     "area": area, "coverage": coverage,
-                    "occupied": (area > 0) & (self._read(page.textures["material"])[..., 3] > 0)})
+                    "occupied": (area > 0) & (self._read(page.textures["material"])[..., 3] > 0)
+                }.items()})
             return samples
 
     def ledger(self):
@@ -305,14 +312,24 @@ class Solver:
                           totals["unshot"])
 
     def ambient_radiance(self):
-        """The unshot remainder as uniform radiance (Cohen et al. 1988): the area-weighted
-        mean unshot radiance times 1 / (1 - mean albedo), the sum of its further bounces.
-        result() adds albedo times this when Settings.ambient is on."""
+        """The unshot light that has bounced at least once, as uniform radiance (Cohen et al.
+        1988): the share c of it that lands (c = received / shot so far: 1 in a closed
+        room), spread over the area, times 1 / (1 - c * mean albedo), the sum of its further
+        bounces. Emission not yet shot (lights, emitting texels) is left out: direct light
+        is far from even, and it shoots first anyway. result() adds albedo times this when
+        Settings.ambient is on."""
         with using(self.ctx):
             totals = self._map_totals()
+        direct = sum((page.emission_left[1].sum(axis=0) for page in self._pages), np.zeros(3))
+        direct = direct + sum((self._light_power(light) for light in self._unshot_lights()),
+                              np.zeros(3))
+        bounced = np.maximum(totals["unshot"] - direct, 0.0)
+        received = totals["received"] - self._gap_shown_received + self._gap_arrived
+        shot = float(np.mean(self._shot_power)) - self._sunlight_missed
+        lands = min(float(np.mean(received)) / shot, 1.0) if shot > 0 else 1.0
         area = max(totals["area"], 1e-30)
         mean_albedo = np.minimum(totals["albedo_area"] / area, 0.999)
-        return totals["unshot"] / (math.pi * area) / (1.0 - mean_albedo)
+        return lands * bounced / (math.pi * area) / (1.0 - lands * mean_albedo)
 
     def _map_totals(self):
         """Sums over every texel of the maps, in double precision: area, albedo x area, the
@@ -330,10 +347,12 @@ class Solver:
             totals["received"] += irradiance.reshape(-1, 3).sum(axis=0)
             totals["absorbed"] += ((1.0 - albedo) * irradiance).reshape(-1, 3).sum(axis=0)
             totals["unshot"] += math.pi * (maps["unshot"][..., :3] * area).reshape(-1, 3).sum(axis=0)
-        queued = [shot for shot in self._queue if not isinstance(shot, _Shooter)]
-        for light in self._pending + queued:
+        for light in self._unshot_lights():
             totals["unshot"] += self._light_power(light)
         return totals
+
+    def _unshot_lights(self):
+        return self._pending + [shot for shot in self._queue if not isinstance(shot, _Shooter)]
 
     def release(self):
         """Release every GL object (and the context, if the solver made it). Idempotent."""
@@ -365,7 +384,13 @@ class Solver:
 
     @property
     def page_size(self):
+        """(width, height) of the lightmap pages result() returns (self.atlas's)."""
         return self.atlas.width, self.atlas.height
+
+    @property
+    def gpu_page_size(self):
+        """(width, height) of the pages the GPU works on: the charts packed tight."""
+        return self._packed.width, self._packed.height
 
     # ----------------------------------------------------------------- preprocess
     def _preprocess(self):
@@ -395,6 +420,8 @@ class Solver:
         started = time.perf_counter()
         self.atlas = build_atlas(scene, settings.texel_density, settings.max_atlas_size,
                                  settings.padding)
+        # The GPU works on the charts packed tight; results go back to self.atlas's layout.
+        self._packed, self._texel_map = tight_packing(self.atlas, 1 << settings.shoot_level)
         self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
         self._check_memory()
         gl = self._gl
@@ -430,8 +457,8 @@ class Solver:
             texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
             self._albedo_textures.append(texture)
 
-        size = (self.atlas.width, self.atlas.height)
-        self._pages = [self._allocate_page(size) for _ in range(self.atlas.page_count)]
+        size = (self._packed.width, self._packed.height)
+        self._pages = [self._allocate_page(size) for _ in range(self._packed.page_count)]
         self._rasterize()
 
         resolution, layers = self._map_size, 6 if settings.projection == "HEMICUBE" else 2
@@ -501,7 +528,7 @@ class Solver:
 
     def _set_constant_uniforms(self):
         """Uniforms that stay the same for the whole bake (texture units among them)."""
-        size = (float(self.atlas.width), float(self.atlas.height))
+        size = (float(self._packed.width), float(self._packed.height))
         receivers = {"u_resolution": float(self._map_size),
                      "u_epsilon": self._epsilon, "u_ortho_half": self._radius,
                      "u_neighbour_visibility": int(self.settings.neighbour_visibility),
@@ -564,7 +591,7 @@ class Solver:
             f"{_lower_to(fits)}", int(needed), limit, fits)
 
     def _check_memory(self):
-        atlas = self.atlas
+        atlas = self._packed
         self._memory_bytes = self._memory_needed(atlas)
         if self._fits(atlas):
             return
@@ -581,8 +608,10 @@ class Solver:
         """The first density from ``density`` down in steps of 15 % whose atlas fits, or
         None when even 1/130 of it does not."""
         for _ in range(30):
-            if self._fits(build_atlas(self.scene, density, self.settings.max_atlas_size,
-                                      self.settings.padding)):
+            if self._fits(tight_packing(build_atlas(self.scene, density,
+                                                    self.settings.max_atlas_size,
+                                                    self.settings.padding),
+                                        1 << self.settings.shoot_level)[0]):
                 return density
             density *= 0.85
         return None
@@ -616,7 +645,7 @@ class Solver:
         return page
 
     def _rasterize(self):
-        scene, atlas = self.scene, self.atlas
+        scene, atlas = self.scene, self._packed
         tris = atlas.triangles
         corners = scene.triangles[tris]
         positions = scene.vertices[corners]
@@ -857,7 +886,7 @@ class Solver:
         self._texel_count = 0
         self._shooting_blocks = 0   # blocks at the shooting level holding texels
         block = 1 << self.settings.shoot_level
-        for page in self._pages:
+        for page_index, page in enumerate(self._pages):
             area = self._read(page.textures["position"])[..., 3:4]
             height, width = area.shape[:2]
             padded = np.zeros((-(-height // block) * block, -(-width // block) * block), bool)
@@ -866,8 +895,37 @@ class Solver:
                 padded.shape[0] // block, block, padded.shape[1] // block, block).any(axis=(1, 3))))
             emission = self._read(page.textures["unshot"])[..., :3]
             receives = self._read(page.textures["material"])[..., 3]
-            self._emitted_maps += math.pi * (emission * area).reshape(-1, 3).sum(axis=0)
+            page.to_atlas = self._atlas_texels(page_index, area[..., 0] > 0)
+            power = math.pi * (emission * area).reshape(-1, 3).astype(np.float64)
+            self._emitted_maps += power.sum(axis=0)
+            emitting = np.flatnonzero(power.max(axis=1) > 0)
+            page.emission_left = (emitting, power[emitting])
             self._texel_count += int(np.count_nonzero((area[..., 0] > 0) & (receives > 0)))
+
+    def _atlas_texels(self, page_index, holds_surface):
+        """(flat indices on the packed page, flat indices on self.atlas's page) of the texels
+        ``holds_surface`` (H, W) marks: each moves back by its chart's offset."""
+        here = np.flatnonzero(holds_surface)
+        texel_map = self._texel_map
+        if texel_map is None:
+            return here, here
+        width = self._packed.width
+        chart_at = np.full(holds_surface.shape, -1, dtype=np.int64)
+        for chart in np.nonzero(texel_map.chart_page == page_index)[0]:
+            x0, y0, x1, y1 = texel_map.boxes[chart]
+            chart_at[y0:y1, x0:x1] = chart
+        offsets = texel_map.offsets[chart_at.ravel()[here]]
+        x, y = here % width - offsets[:, 0], here // width - offsets[:, 1]
+        return here, y * self.atlas.width + x
+
+    def _in_atlas_layout(self, page, image):
+        """A packed page's (H, W, ...) array laid out as self.atlas's page (zero elsewhere)."""
+        if self._texel_map is None:
+            return image
+        here, there = page.to_atlas
+        moved = np.zeros((self.atlas.height, self.atlas.width) + image.shape[2:], image.dtype)
+        moved.reshape((-1,) + image.shape[2:])[there] = image.reshape((-1,) + image.shape[2:])[here]
+        return moved
 
     # ----------------------------------------------------------------- selection
     def _select_shots(self):
@@ -953,7 +1011,7 @@ class Solver:
         offset, views = 0, []
         for page_index, x0, y0, size in regions:
             page = self._pages[page_index]
-            width, height = min(size, self.atlas.width - x0), min(size, self.atlas.height - y0)
+            width, height = min(size, self._packed.width - x0), min(size, self._packed.height - y0)
             count = width * height
             for attachment, components in BLOCK_MAPS:
                 page.blocks.read_into(self._staging, viewport=(x0, y0, width, height),
@@ -992,7 +1050,7 @@ class Solver:
             yield region, maps, np.arange(len(maps[0]))
             return
         page_index, x0, y0, size = region
-        width, height = min(size, self.atlas.width - x0), min(size, self.atlas.height - y0)
+        width, height = min(size, self._packed.width - x0), min(size, self._packed.height - y0)
         part = size >> finer
         index = np.arange(width * height)
         column, row = index % width, index // width
@@ -1009,7 +1067,7 @@ class Solver:
         if charts is None:
             page_index, x0, y0, size = region
             charts = self._region_charts[region] = _region_charts(
-                maps[0], maps[2][:, 3], min(size, self.atlas.width - x0), (x0, y0))
+                maps[0], maps[2][:, 3], min(size, self._packed.width - x0), (x0, y0))
         labels, by_label = charts
         return labels[rows], by_label
 
@@ -1019,7 +1077,7 @@ class Solver:
         texels of other charts, which keep their energy)."""
         page_index, x0, y0, size = region
         page = self._pages[page_index]
-        width = min(size, self.atlas.width - x0)
+        width = min(size, self._packed.width - x0)
         position, normal, unshot, surface, albedo = maps
         area, radiance, texel_size = position[:, 3], unshot[:, :3], unshot[:, 3]
         power = radiance.mean(axis=1) * area
@@ -1238,7 +1296,7 @@ class Solver:
         if key in self._lit_polygons:
             return self._lit_polygons[key]
         if self._page_triangles is None:
-            atlas = self.atlas
+            atlas = self._packed
             corners = self.scene.vertices[self.scene.triangles[atlas.triangles]]
             open_edges = self._open_edges()
             self._page_triangles = [
@@ -1257,7 +1315,9 @@ class Solver:
             if abs(turn) < 1e-12:
                 continue
             piece = clipped(outline, rectangle)
-            if len(piece) < 3:
+            # A triangle touching the rectangle along a side or at a corner leaves a piece of
+            # no area, whose outline would cover everything in thin_gaps.share_under.
+            if len(piece) < 3 or abs(signed_area(piece)) <= 1e-9 * abs(turn):
                 continue
             polygons.append(_texels_to_world(piece, uv, points))
             for corner in np.nonzero(open_edges[triangle])[0]:
@@ -1280,7 +1340,7 @@ class Solver:
         """Per charted triangle, whether each edge (corner i to i + 1) is open: no other
         triangle of its surface, on the same side of the sheet, shares it. A thin gap's light
         leaks out there (thin_gaps.edge_band)."""
-        scene, atlas = self.scene, self.atlas
+        scene, atlas = self.scene, self._packed
         ends = np.round(scene.vertices[scene.triangles[atlas.triangles]] / self._epsilon)
         ends = ends.astype(np.int64)
         starts, stops = ends, np.roll(ends, -1, axis=1)                      # (C, 3, 3)
@@ -1426,6 +1486,11 @@ class Solver:
         read, so energy they received since stays)."""
         self._blend_points(shooter.page.unshot_only, shooter.texels, shooter.unshot,
                            moderngl.FUNC_REVERSE_SUBTRACT)
+        emitting, power = shooter.page.emission_left
+        if len(emitting):
+            flat = shooter.texels[:, 1].astype(np.int64) * self._packed.width + shooter.texels[:, 0]
+            where = np.searchsorted(emitting, flat).clip(0, len(emitting) - 1)
+            power[where[emitting[where] == flat]] = 0.0
 
     def _update_receivers(self, kind):
         program = self._programs[kind]
@@ -1461,6 +1526,7 @@ class Solver:
             image *= material
             image *= occupied[..., None]
             image[..., 3] = occupied
+            image = self._in_atlas_layout(page, image)
             _fill_gutter(image, self.settings.padding + 1)
             pages.append(image)
         return pages

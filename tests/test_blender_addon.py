@@ -374,7 +374,7 @@ def test_every_solver_setting_in_the_scene_reaches_the_native_settings():
         "shoot_level": 3, "threshold": 0.25, "max_shots": 77, "projection": "NONLINEAR",
         "neighbour_visibility": False, "subdivision": "ADAPTIVE", "subdivision_level": 3,
         "subdivision_shadow_min": 0.25, "subdivision_shadow_max": 0.75,
-        "adaptive_shoot_level": True, "ambient": True,
+        "adaptive_shoot_level": True, "ambient": False,
     }
     native = blender_session.addon().native
     exposed = {field.name for field in dataclasses.fields(native.Settings)
@@ -434,14 +434,14 @@ def test_cli_applies_the_visibility_and_subdivision_options(capsys):
     scene = room_scene()
     assert run_cli(["bake", "--projection", "NONLINEAR", "--no-neighbour-visibility",
                     "--subdivision", "ADAPTIVE", "--subdivision-level", "1",
-                    "--shadow-range", "0.25", "0.75", "--adaptive-shoot-level", "--ambient",
+                    "--shadow-range", "0.25", "0.75", "--adaptive-shoot-level", "--no-ambient",
                     "--density", "4", "--shots", "5"]) == 0
     assert "luxel: done" in capsys.readouterr().out
     settings = scene.luxel
     assert settings.projection == "NONLINEAR" and not settings.neighbour_visibility
     assert settings.subdivision == "ADAPTIVE" and settings.subdivision_level == 1
     assert (settings.subdivision_shadow_min, settings.subdivision_shadow_max) == (0.25, 0.75)
-    assert settings.adaptive_shoot_level and settings.ambient and settings.max_shots == 5
+    assert settings.adaptive_shoot_level and not settings.ambient and settings.max_shots == 5
     assert settings.stats.valid and 0 < settings.stats.shots <= 5
 
 

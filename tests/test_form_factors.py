@@ -17,6 +17,9 @@ def projection(request):
 
 
 def bake(scene, ctx, projection, **settings):
+    # What the shots delivered: the ambient term (an estimate of what is still unshot) has
+    # tests of its own.
+    settings.setdefault("ambient", False)
     solver = Solver(scene, Settings(projection=projection, **settings), ctx=ctx)
     try:
         solver.run()

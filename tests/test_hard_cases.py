@@ -13,6 +13,9 @@ from native.samples import SceneBuilder
 
 
 def solve(scene, ctx, **settings):
+    # What the shots delivered: the ambient term (an estimate of what is still unshot) has
+    # tests of its own.
+    settings.setdefault("ambient", False)
     solver = Solver(scene, Settings(**settings), ctx=ctx)
     try:
         solver.run()
@@ -253,6 +256,30 @@ def test_furnace_of_albedo_0_99_with_the_ambient_term(ctx, gl_clean, projection)
     np.testing.assert_allclose(values, albedo / (1 - albedo), rtol=0.01)
     unshot_radiance = ledger.unshot / (math.pi * 6.0)        # spread over the cube's 6 m^2
     np.testing.assert_allclose(ambient, unshot_radiance / (1 - albedo), rtol=1e-3)
+
+
+def test_the_ambient_term_is_the_bounced_light_that_lands(ctx, gl_clean):
+    """A square plate of side a under a point light at height h, in the open. Before any
+    shot all unshot light is direct: no ambient term. After the light's shot the plate holds
+    rho P Omega / (4 pi) unshot (Omega, the plate's solid angle from the light:
+    4 asin(a^2 / (a^2 + 4 h^2))), and the share that lands of what is shot, as the light's
+    shot showed, is Omega / (4 pi): the ambient radiance is that share of the bounced power
+    over pi times the area, times 1 / (1 - share rho)."""
+    albedo, side, height, power = 0.5, 2.0, 1.0, 100.0
+    scene = scenes.plane(side, albedo, [PointLight(position=(0.0, 0.0, height), power=power)])
+    solver = Solver(scene, Settings(texel_density=16, max_shots=1), ctx=ctx)
+    try:
+        before = solver.ambient_radiance()
+        solver.run()
+        after = solver.ambient_radiance()
+    finally:
+        solver.release()
+    assert np.all(before == 0.0)
+    omega = 4.0 * math.asin(side ** 2 / (side ** 2 + 4.0 * height ** 2))
+    lands = omega / (4.0 * math.pi)
+    bounced = albedo * power * lands
+    expected = lands * bounced / (math.pi * side ** 2) / (1.0 - lands * albedo)
+    np.testing.assert_allclose(after, expected, rtol=0.01)
 
 
 def test_one_sided_plate_seen_from_behind_casts_a_shadow_and_gets_no_light(ctx, gl_clean):

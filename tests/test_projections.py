@@ -33,7 +33,8 @@ def test_a_triangle_almost_edge_on_to_the_shooter_keeps_its_light(ctx, gl_clean,
     builder.quad("wall", [tuple(p) for p in wall], (albedo,) * 3)   # faces -y
     builder.quad("emitter", EMITTER, (0.0,) * 3, (radiance,) * 3, two_sided=False)
     solver = Solver(builder.build(), Settings(texel_density=40, shoot_level=0, max_shots=64,
-                                              threshold=0.0, projection=projection), ctx=ctx)
+                                              threshold=0.0, projection=projection,
+                                              ambient=False), ctx=ctx)
     try:
         solver.run()
         image, samples = solver.result()[0], solver.texel_samples()[0]
@@ -64,7 +65,7 @@ def test_an_emitter_does_not_light_itself(ctx, gl_clean, subdivision):
     builder.quad("panel", panel, (0.5,) * 3, (1.0,) * 3, two_sided=False)  # faces down
     solver = Solver(builder.build(), Settings(texel_density=16, subdivision=subdivision,
                                               subdivision_level=2, threshold=0.0,
-                                              max_shots=64), ctx=ctx)
+                                              max_shots=64, ambient=False), ctx=ctx)
     try:
         solver.run()
         image, samples = solver.result()[0], solver.texel_samples()[0]

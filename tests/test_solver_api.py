@@ -237,7 +237,7 @@ def test_albedo_texture_is_sampled_through_its_uvs(ctx, gl_clean):
     scene.albedo_texture_index = np.zeros(len(scene.triangles), dtype=np.int64)
     scene.albedo_uv = scene.vertices[scene.triangles][..., :2]
     scene.__post_init__()
-    solver = Solver(scene, Settings(texel_density=16, max_shots=1), ctx=ctx)
+    solver = Solver(scene, Settings(texel_density=16, max_shots=1, ambient=False), ctx=ctx)
     try:
         solver.run()
         image = solver.result()[0]
