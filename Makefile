@@ -67,7 +67,7 @@ bench-equal-error: $(VENV)/.bench
 	$(BIN)/python bench/bench_equal_error.py --scene living --density 8 --samples 512 --exclude ceiling \
 		--save-reference out/reference-living.npz \
 		--json bench/results/equal-error-living-$(DEVICE).json
-	$(BIN)/python bench/bench_equal_error.py --scene office --density 4 --samples 512 \
+	$(BIN)/python bench/bench_equal_error.py --scene office --density 4 --samples 1024 \
 		--threshold 0.05 --exclude ceiling --save-reference out/reference-office.npz \
 		--json bench/results/equal-error-office-$(DEVICE).json
 

@@ -146,12 +146,13 @@ class TexelMap:
 
 def tight_packing(atlas, align=1):
     """The atlas with its charts moved by whole texels so that their bounding boxes all but
-    abut (one empty texel between), page by page: the texels of every triangle stay the same texels,
-    shifted. The solver works on this (its GPU passes run over whole pages, and a gutter for
-    bilinear filtering, a must in the lightmaps Blender shows, is mostly empty texels around
-    small charts: 95 % of the office's atlas); results go back to the atlas's layout through
-    the TexelMap. Charts of ``align`` texels or more across start at multiples of it.
-    Returns (tight atlas, TexelMap), or (atlas, None) where packing saves nothing."""
+    abut (one empty texel between), page by page: every triangle covers the same texels,
+    shifted. The solver works on this: its GPU passes run over whole pages, and the gutters
+    bilinear filtering needs in the lightmaps Blender shows are most of an atlas of small
+    charts (95 % of the office's). Results go back to the atlas's layout through the
+    TexelMap. Charts of ``align`` texels or more across start at multiples of it. Returns
+    (tight atlas, TexelMap), or (atlas, None) where the pages would not shrink to
+    TIGHT_PACKING_GAIN of theirs or would grow a longer side."""
     if atlas.chart is None or (atlas.chart < 0).any() or not len(atlas.chart):
         return atlas, None
     charts = int(atlas.chart.max()) + 1
@@ -168,7 +169,8 @@ def tight_packing(atlas, align=1):
     size = np.ceil(high - 1e-6).astype(np.int64) + 1 - start
     origins, extent = _shelf_pack(size, chart_page, atlas.page_count, align)
     width, height = extent
-    if width * height > TIGHT_PACKING_GAIN * atlas.width * atlas.height:
+    if (width * height > TIGHT_PACKING_GAIN * atlas.width * atlas.height
+            or max(width, height) > max(atlas.width, atlas.height)):
         return atlas, None
     offsets = origins - start
     texels = atlas.texels + offsets[atlas.chart][:, None, :]

@@ -914,6 +914,7 @@ class Solver:
         for chart in np.nonzero(texel_map.chart_page == page_index)[0]:
             x0, y0, x1, y1 = texel_map.boxes[chart]
             chart_at[y0:y1, x0:x1] = chart
+        here = here[chart_at.ravel()[here] >= 0]   # every texel lies in its chart's box
         offsets = texel_map.offsets[chart_at.ravel()[here]]
         x, y = here % width - offsets[:, 0], here // width - offsets[:, 1]
         return here, y * self.atlas.width + x
