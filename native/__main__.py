@@ -33,9 +33,10 @@ def main(argv=None):
                             hemicube_resolution=args.hemicube)
         with Solver(cornell_box(), settings) as solver:
             print(f"device: {solver.ctx.info['GL_RENDERER']}")
+            width, height = solver.gpu_page_size
             print(f"texels: {solver.texel_count} on {solver.atlas.page_count} page(s) of "
-                  f"{solver.atlas.width}x{solver.atlas.height}, GPU memory "
-                  f"{solver.gpu_memory_bytes / 2**20:.1f} MiB")
+                  f"{solver.atlas.width}x{solver.atlas.height} ({width}x{height} on the GPU), "
+                  f"GPU memory {solver.gpu_memory_bytes / 2**20:.1f} MiB")
 
             def report(progress):
                 if progress.shots % 500 == 0:
