@@ -12,7 +12,8 @@ against a Cycles reference made elsewhere by `bench_equal_error.py --save-refere
 The bake is the solver's alone on the exported scene (bench/scenes/<scene>.npz: the same
 triangles, materials and lights the extension exports), so its seconds exclude Blender's
 export; the atlas comes out texel for texel as in Blender (xatlas is deterministic), which
-`compare` checks: every reference texel must be one of Luxel's."""
+`compare` checks: it measures over the texels both cover, and refuses a reference whose
+texels are more than MAX_LEFT_OUT not Luxel's."""
 import argparse
 import json
 import math
@@ -22,6 +23,9 @@ import time
 import numpy as np
 
 from bench_equal_error import TARGETS, _time_to
+
+# compare refuses a reference whose texels are not Luxel's beyond this share: another atlas.
+MAX_LEFT_OUT = 0.2
 from common import device_name, load_scene
 from native import Settings, Solver, create_context
 from native.snapshots import Snapshots
@@ -63,19 +67,23 @@ def compare(args):
         rows = np.full(mask.shape, -1)
         rows[mask] = np.arange(int(mask.sum()))
         row_of[page] = rows
-    lookups, squares, variance, count = [], 0.0, 0.0, 0
+    lookups, squares, variance, count, left_out = [], 0.0, 0.0, 0, 0
     for name in names:
         page = int(reference[f"{name}/page"])
         texels = reference[f"{name}/texels"]
         rows = row_of[page][texels[:, 0], texels[:, 1]]
-        if (rows < 0).any():
-            raise SystemExit(f"'{name}': {int((rows < 0).sum())} reference texels are not "
-                             "Luxel's: the atlas differs from the one the reference was made on")
-        rgb = reference[f"{name}/rgb"].astype(np.float64)
-        lookups.append((page, rows, rgb))
+        # Over the texels both cover, as the extension's comparison: Cycles' bake also covers
+        # texels beside some small charts (the temple's flutes) that hold no surface here.
+        shared = rows >= 0
+        left_out += int((~shared).sum())
+        rgb = reference[f"{name}/rgb"].astype(np.float64)[shared]
+        lookups.append((page, rows[shared], rgb))
         squares += float((rgb ** 2).sum())
-        variance += float(reference[f"{name}/variance"].sum())
+        variance += float(reference[f"{name}/variance"][shared].sum())
         count += len(rgb)
+    if left_out > MAX_LEFT_OUT * (count + left_out):
+        raise SystemExit(f"{left_out} of {count + left_out} reference texels are not Luxel's: "
+                         "the atlas differs from the one the reference was made on")
     magnitude, noise = math.sqrt(squares / count), variance / count
     curve = []
     for index, (shots, seconds) in enumerate(zip(luxel["shots"], luxel["seconds"])):
@@ -98,7 +106,7 @@ def compare(args):
         print(f"[{label}] {100 * target:.0f} %: Luxel {luxel_time}, Cycles {cycles_time}")
     result = {"scene": recorded["scene"], "device": {"luxel": str(luxel["device"]),
                                                      "cycles": "CPU (the reference's machine)"},
-              "set": label, "objects": names,
+              "set": label, "objects": names, "reference_texels_left_out": left_out,
               "reference_noise_rel": math.sqrt(noise) / magnitude,
               "luxel": curve, "cycles": cycles, "equal_error": rows}
     if args.json:
