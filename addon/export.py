@@ -50,6 +50,7 @@ class _Collector:
         self.albedo, self.emission, self.two_sided = [], [], []
         self.receive, self.occlude, self.object_index = [], [], []
         self.receive_back = []
+        self.polygon, self.polygon_count = [], 0
         self.albedo_uv, self.texture_index = [], []
         self.object_names, self.texel_scale = [], []
         self.vertex_count = 0
@@ -61,7 +62,7 @@ class _Collector:
         return len(self.object_names) - 1
 
     def add(self, vertices, normals, triangles, obj, albedo, emission, two_sided, receive,
-            occlude, albedo_uv, texture_index, receive_back=False):
+            occlude, albedo_uv, texture_index, receive_back=False, polygon=None):
         count = len(triangles)
         self.vertices.append(vertices)
         self.normals.append(normals)
@@ -73,6 +74,10 @@ class _Collector:
         self.receive.append(np.broadcast_to(receive, count))
         self.occlude.append(np.broadcast_to(occlude, count))
         self.receive_back.append(np.broadcast_to(receive_back, count))
+        # Faces numbered across the scene: after the faces of the objects added before.
+        self.polygon.append(np.full(count, -1) if polygon is None
+                            else polygon + self.polygon_count)
+        self.polygon_count += 0 if polygon is None else int(polygon.max(initial=-1)) + 1
         self.object_index.append(np.full(count, obj))
         self.albedo_uv.append(albedo_uv)
         self.texture_index.append(texture_index)
@@ -192,6 +197,7 @@ class _Exporter:
             return
         loops = _array(mesh.loop_triangles, "loops", np.int64, (triangles_count, 3))
         material_index = _array(mesh.loop_triangles, "material_index", np.int64, (-1,))
+        polygon = _array(mesh.loop_triangles, "polygon_index", np.int64, (-1,))
         loop_vertex = _array(mesh.loops, "vertex_index", np.int64, (-1,))
         positions = _array(mesh.vertices, "co", np.float64, (-1, 3))
         corner_normals = _array(mesh.corner_normals, "vector", np.float64, (-1, 3))
@@ -208,7 +214,7 @@ class _Exporter:
         usable = self._usable_triangles(positions[loop_vertex[loops]], name)
         if not usable.any():
             return
-        loops, material_index = loops[usable], material_index[usable]
+        loops, material_index, polygon = loops[usable], material_index[usable], polygon[usable]
         triangles_count = len(loops)
 
         # One solver vertex per (mesh vertex, corner normal): sharp edges split, smooth ones
@@ -248,7 +254,8 @@ class _Exporter:
                                               and _is_open(loop_vertex[loops]))
         object_index = self.collector.add_object(name, texel_scale)
         first = self.collector.add(vertices, normals, triangles, object_index, albedo, emission,
-                                   True, receive, True, albedo_uv, texture_index, receive_back)
+                                   True, receive, True, albedo_uv, texture_index, receive_back,
+                                   polygon)
         if receive:
             self.receivers.append(Receiver(name, object_index, first, loops))
 
@@ -471,7 +478,7 @@ class _Exporter:
             emission=np.concatenate(c.emission),
             emission_two_sided=np.concatenate(c.two_sided),
             receive=np.concatenate(c.receive), occlude=np.concatenate(c.occlude),
-            receive_back=np.concatenate(c.receive_back),
+            receive_back=np.concatenate(c.receive_back), polygon=np.concatenate(c.polygon),
             object_index=np.concatenate(c.object_index), object_names=c.object_names,
             object_texel_scale=c.texel_scale, albedo_uv=np.concatenate(c.albedo_uv),
             albedo_texture_index=np.concatenate(c.texture_index),

@@ -116,22 +116,95 @@ def _build(scene, chosen, density, max_size, padding):
         # xatlas puts texel centres on integer + 0.5 coordinates of its charts; shifting by
         # half a texel makes a chart of whole texels cover whole texels.
         texels[row:row + len(members)] = corners * [width, height] - 0.5
-        # ... up to the rounding of xatlas's single-float UVs: snapped, so that a chart's edge
-        # claims no sliver of the next texel (a texel of its own, of 1e-6 of its area).
-        nearest = np.round(texels[row:row + len(members)])
-        texels[row:row + len(members)] = np.where(
-            np.abs(texels[row:row + len(members)] - nearest) < SNAP_TEXELS, nearest,
-            texels[row:row + len(members)])
         page[row:row + len(members)] = pages[indices.reshape(-1, 3)[:, 0]]
         for index in range(atlas.get_mesh_chart_count(mesh)):
             chart[row + atlas.get_mesh_chart(mesh, index).faces.astype(np.int64)] = charts
             charts += 1
         row += len(members)
+    _keep_faces_in_one_chart(scene, order, texels, page, chart, (width, height))
+    # ... up to the rounding of xatlas's single-float UVs: snapped, so that a chart's edge
+    # claims no sliver of the next texel (a texel of its own, of 1e-6 of its area).
+    nearest = np.round(texels)
+    texels = np.where(np.abs(texels - nearest) < SNAP_TEXELS, nearest, texels)
     page_count = max(int(atlas.atlas_count), 1)
     packed = (page >= 0) & (page < page_count)   # xatlas marks a face it dropped 2^32 - 1
     return Atlas(width, height, page_count, order[packed], page[packed],
                  np.clip(texels[packed], 0.0, [width, height]), float(density),
                  unpacked=order[~packed], chart=chart[packed])
+
+
+def _keep_faces_in_one_chart(scene, order, texels, page, chart, size):
+    """xatlas charts triangles, and may cut a chart through a face (a quad of a fluted
+    column, between its two triangles): Blender keeps one UV per face corner, so such a face
+    would show two charts' texels at once. Each such face's triangles are mapped into the
+    chart of its largest one, by that triangle's affine map (world to texels), where the
+    texels they come to hold belong to no other chart (the chart's padding); a face whose
+    move would overlap another chart keeps its cut. ``texels``, ``page`` and ``chart``
+    (rows of ``order``) change in place."""
+    polygon = scene.polygon[order]
+    faces = polygon >= 0
+    rows = np.nonzero(faces)[0][np.argsort(polygon[faces], kind="stable")]
+    starts = np.nonzero(np.r_[True, np.diff(polygon[rows]) != 0])[0]
+    split = [group for group in np.split(rows, starts[1:]) if len(set(chart[group])) > 1]
+    if not split:
+        return
+    # Which chart holds each texel, from its triangles' texel boxes (only when a face is cut).
+    width, height = size
+    owner = np.full((int(page.max()) + 1, height, width), -1, dtype=np.int64)
+    for row in range(len(order)):
+        x0, y0, x1, y1 = _texel_box(texels[row])
+        owner[page[row], y0:y1, x0:x1] = chart[row]
+    for group in split:
+        uv_area = [abs(_cross(texels[r][1] - texels[r][0], texels[r][2] - texels[r][0]))
+                   for r in group]
+        for anchor in group[np.argsort(uv_area)[::-1]]:   # the largest triangle's chart first
+            moved = _moved_into_chart(scene, order, texels, page, chart, group, anchor, owner,
+                                      size)
+            if moved is not None:
+                break
+        for r, corners in (moved or {}).items():
+            texels[r], page[r], chart[r] = corners, page[anchor], chart[anchor]
+            x0, y0, x1, y1 = _texel_box(corners)
+            owner[page[r], y0:y1, x0:x1] = chart[r]
+
+
+def _moved_into_chart(scene, order, texels, page, chart, group, anchor, owner, size):
+    """{row: texel corners} of a face's triangles outside the anchor triangle's chart, mapped
+    into it, or None where one would leave the page or cover another chart's texels."""
+    to_texels = _world_to_texels(scene.vertices[scene.triangles[order[anchor]]], texels[anchor])
+    moved = {}
+    for r in group:
+        if chart[r] == chart[anchor]:
+            continue
+        corners = to_texels(scene.vertices[scene.triangles[order[r]]])
+        x0, y0, x1, y1 = _texel_box(corners)
+        if corners.min() < 0 or (corners.max(axis=0) > size).any():
+            return None
+        held = owner[page[anchor], y0:y1, x0:x1]
+        if np.isin(held, [-1, chart[anchor], chart[r]], invert=True).any():
+            return None
+        moved[r] = corners
+    return moved
+
+
+def _texel_box(corners):
+    """x0, y0, x1, y1: the texels a triangle's corners (3, 2) span."""
+    low = np.floor(corners.min(axis=0) + 1e-6).astype(int)
+    high = np.ceil(corners.max(axis=0) - 1e-6).astype(int)
+    return low[0], low[1], high[0], high[1]
+
+
+def _cross(a, b):
+    return a[0] * b[1] - a[1] * b[0]
+
+
+def _world_to_texels(world, corners):
+    """The affine map of a triangle (world corners (3, 3), texel corners (3, 2)), for points
+    on its plane (others are projected onto it)."""
+    edges = np.stack([world[1] - world[0], world[2] - world[0]], axis=1)     # (3, 2)
+    texel_edges = np.stack([corners[1] - corners[0], corners[2] - corners[0]], axis=1)
+    inverse = np.linalg.pinv(edges)                                           # (2, 3)
+    return lambda points: corners[0] + ((points - world[0]) @ inverse.T) @ texel_edges.T
 
 
 @dataclass

@@ -89,6 +89,9 @@ class Scene:
     receive_back (T,) the back face receives and reflects light too, on texels of its own
     (Blender's surfaces are two-sided; off by default because the back of a closed mesh is
     inside it): solved as a mirrored copy, see with_back_faces().
+    polygon (T,) the face each triangle comes from, numbered across the scene (-1: a face of
+    its own): Blender keeps one lightmap UV per face corner, so the atlas keeps a face's
+    triangles in one chart.
     object_index (T,) into object_names, used in messages and by the add-on;
     object_texel_scale, one factor per object name, multiplies the texel density there.
     albedo_texture_index (T,) into albedo_textures ((H, W, 3 or 4) linear float arrays, row 0
@@ -112,6 +115,7 @@ class Scene:
     occlude: np.ndarray = None
     sky: tuple = (0.0, 0.0, 0.0)
     receive_back: np.ndarray = None
+    polygon: np.ndarray = None
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -140,6 +144,7 @@ class Scene:
         self.receive = per_triangle(self.receive, True, bool)
         self.occlude = per_triangle(self.occlude, True, bool)
         self.receive_back = per_triangle(self.receive_back, False, bool)
+        self.polygon = per_triangle(self.polygon, -1, np.int64)
         self.back_of = None   # with_back_faces(): the original of each copy, -1 for originals
         self.sky = _vec3(self.sky, "sky")
         self.object_index = per_triangle(self.object_index, 0, np.int64)
@@ -294,7 +299,8 @@ class Scene:
             albedo_texture_index=extend(self.albedo_texture_index,
                                         self.albedo_texture_index[backs]),
             albedo_textures=self.albedo_textures, lights=self.lights,
-            occlude=extend(self.occlude, np.zeros(len(backs), bool)), sky=self.sky)
+            occlude=extend(self.occlude, np.zeros(len(backs), bool)), sky=self.sky,
+            polygon=extend(self.polygon, np.full(len(backs), -1)))   # no UV map shows copies
         copy.back_of = extend(np.full(count, -1), backs)  # the original of each copy
         return copy
 

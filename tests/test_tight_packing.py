@@ -1,10 +1,9 @@
 """The lightmap layout: charts of whole texels claim no slivers of their neighbours, and the
 GPU's tight packing of the charts comes back texel for texel to the atlas's layout."""
-import math
-
 import numpy as np
 
-from native import Settings, Solver
+from conftest import ROOT
+from native import PointLight, Scene, Settings, Solver, build_atlas
 from native.samples import SceneBuilder
 
 DENSITY = 12.0   # texels per metre
@@ -100,3 +99,34 @@ def test_furnace_of_many_small_charts(ctx, gl_clean):
     values = np.concatenate([image[image[..., 3] == 1][:, :3] for image in images])
     assert len(values) == 6 * 144
     np.testing.assert_allclose(values, albedo / (1 - albedo), rtol=0.02)
+
+
+def test_a_face_keeps_its_triangles_in_one_chart():
+    """Blender keeps one lightmap UV per face corner, so the two triangles of a quad must
+    agree on the UVs of the corners they share. xatlas charts triangles and cut 16 quads of
+    each of the temple's fluted columns between their triangles (then Cycles baked those
+    faces across charts up to 286 texels apart); the atlas moves such a face's triangles
+    into one chart. Checked on a column exported from sample_blends/temple.blend."""
+    temple = Scene.load(ROOT / "bench" / "scenes" / "temple.npz")
+    column = temple.object_index == temple.object_names.index("column_01")
+    lamp = temple.emission.max(axis=1) > 0   # a scene needs light; none is on the column
+    keep = np.nonzero(column)[0]
+    used, corners = np.unique(temple.triangles[keep], return_inverse=True)
+    scene = Scene(vertices=temple.vertices[used], triangles=corners.reshape(-1, 3),
+                  polygon=temple.polygon[keep],
+                  lights=[PointLight(position=(0.0, 0.0, 20.0), power=1.0)])
+    assert not lamp[keep].any()
+    atlas = build_atlas(scene, 2.0)
+    row_of = np.full(len(scene.triangles), -1)
+    row_of[atlas.triangles] = np.arange(len(atlas.triangles))
+    faces_cut = 0
+    for face in np.unique(scene.polygon):
+        triangles = np.nonzero(scene.polygon == face)[0]
+        corner_uv = {}
+        for triangle in triangles:
+            for vertex, uv in zip(scene.triangles[triangle], atlas.texels[row_of[triangle]]):
+                corner_uv.setdefault(vertex, []).append(uv)
+        faces_cut += any(np.ptp(np.array(uvs), axis=0).max() > 1e-6
+                         for uvs in corner_uv.values())
+    assert len(np.unique(scene.polygon)) > 400
+    assert faces_cut == 0
