@@ -208,6 +208,7 @@ class _Page:
     # Emitting texels not yet shot: flat texel indices (sorted) and their emitted power (W),
     # zeroed as they shoot (the ambient term leaves direct light out).
     emission_left: tuple = (np.zeros(0, np.int64), np.zeros((0, 3)))
+    area: np.ndarray = None    # (H, W) float32: each texel's area, m^2 (it does not change)
 
 
 class Solver:
@@ -319,16 +320,26 @@ class Solver:
         is far from even, and it shoots first anyway. result() adds albedo times this when
         Settings.ambient is on."""
         with using(self.ctx):
-            totals = self._map_totals()
-        direct = sum((page.emission_left[1].sum(axis=0) for page in self._pages), np.zeros(3))
-        direct = direct + sum((self._light_power(light) for light in self._unshot_lights()),
-                              np.zeros(3))
-        bounced = np.maximum(totals["unshot"] - direct, 0.0)
-        received = totals["received"] - self._gap_shown_received + self._gap_arrived
+            return self._ambient([self._read(page.textures["irradiance"])
+                                  for page in self._pages])
+
+    def _ambient(self, irradiance):
+        """ambient_radiance() from the pages' irradiance maps (result() reads them anyway)
+        and their unshot maps; the area and albedo sums are the setup's (_measure_emission)."""
+        received, unshot = self._gap_arrived - self._gap_shown_received, np.zeros(3)
+        for page, page_irradiance in zip(self._pages, irradiance):
+            # Whole RGBA rows times the areas: one product each (an estimate needs no
+            # double-precision sums; the ledger's are).
+            area = page.area.reshape(-1)
+            received = received + (page_irradiance.reshape(-1, 4).T @ area)[:3]
+            unshot = unshot + math.pi * (self._read(page.textures["unshot"]).reshape(-1, 4).T
+                                         @ area)[:3]
+            unshot = unshot - page.emission_left[1].sum(axis=0)   # direct light, unshot
+        bounced = np.maximum(unshot, 0.0)
         shot = float(np.mean(self._shot_power)) - self._sunlight_missed
         lands = min(float(np.mean(received)) / shot, 1.0) if shot > 0 else 1.0
-        area = max(totals["area"], 1e-30)
-        mean_albedo = np.minimum(totals["albedo_area"] / area, 0.999)
+        area = max(self._surface_area, 1e-30)
+        mean_albedo = np.minimum(self._albedo_area / area, 0.999)
         return lands * bounced / (math.pi * area) / (1.0 - lands * mean_albedo)
 
     def _map_totals(self):
@@ -347,12 +358,10 @@ class Solver:
             totals["received"] += irradiance.reshape(-1, 3).sum(axis=0)
             totals["absorbed"] += ((1.0 - albedo) * irradiance).reshape(-1, 3).sum(axis=0)
             totals["unshot"] += math.pi * (maps["unshot"][..., :3] * area).reshape(-1, 3).sum(axis=0)
-        for light in self._unshot_lights():
+        queued = [shot for shot in self._queue if not isinstance(shot, _Shooter)]
+        for light in self._pending + queued:
             totals["unshot"] += self._light_power(light)
         return totals
-
-    def _unshot_lights(self):
-        return self._pending + [shot for shot in self._queue if not isinstance(shot, _Shooter)]
 
     def release(self):
         """Release every GL object (and the context, if the solver made it). Idempotent."""
@@ -883,6 +892,7 @@ class Solver:
         summed in double precision; the receiving texels, and the blocks at the shooting
         level that hold texels (a mean block's share of the power, for _block_region)."""
         self._emitted_maps = np.zeros(3)
+        self._surface_area, self._albedo_area = 0.0, np.zeros(3)   # m^2: all texels, receiving
         self._texel_count = 0
         self._shooting_blocks = 0   # blocks at the shooting level holding texels
         block = 1 << self.settings.shoot_level
@@ -894,7 +904,13 @@ class Solver:
             self._shooting_blocks += int(np.count_nonzero(padded.reshape(
                 padded.shape[0] // block, block, padded.shape[1] // block, block).any(axis=(1, 3))))
             emission = self._read(page.textures["unshot"])[..., :3]
-            receives = self._read(page.textures["material"])[..., 3]
+            material = self._read(page.textures["material"])
+            receives = material[..., 3]
+            page.area = np.ascontiguousarray(area[..., 0])
+            self._surface_area += float(area.sum(dtype=np.float64))
+            self._albedo_area = self._albedo_area + (
+                material[..., :3] * (receives[..., None] > 0) * area).reshape(-1, 3).sum(
+                axis=0, dtype=np.float64)
             page.to_atlas = self._atlas_texels(page_index, area[..., 0] > 0)
             power = math.pi * (emission * area).reshape(-1, 3).astype(np.float64)
             self._emitted_maps += power.sum(axis=0)
@@ -1515,13 +1531,13 @@ class Solver:
     def _postprocess(self):
         """Per page: rho * (E / pi + ambient) on receiving texels, alpha 1, and the gutter
         filled, on the CPU from the maps it reads anyway (no output maps on the GPU)."""
-        ambient = self.ambient_radiance() if self.settings.ambient else np.zeros(3)
+        # Whole RGBA rows are contiguous (fast); the irradiance's alpha is 0 throughout.
+        irradiance = [self._read(page.textures["irradiance"]) for page in self._pages]
+        ambient = self._ambient(irradiance) if self.settings.ambient else np.zeros(3)
         pages = []
-        for page in self._pages:
+        for page, image in zip(self._pages, irradiance):
             material = self._read(page.textures["material"])
             occupied = material[..., 3] > 0   # a receiving texel (rasterized: area > 0)
-            # Whole RGBA rows are contiguous (fast); the irradiance's alpha is 0 throughout.
-            image = self._read(page.textures["irradiance"])
             image *= np.float32(1.0 / math.pi)
             image += np.append(ambient, 0.0).astype(np.float32)
             image *= material
