@@ -121,28 +121,29 @@ def _build(scene, chosen, density, max_size, padding):
             chart[row + atlas.get_mesh_chart(mesh, index).faces.astype(np.int64)] = charts
             charts += 1
         row += len(members)
-    _keep_faces_in_one_chart(scene, order, texels, page, chart, (width, height))
+    page_count = max(int(atlas.atlas_count), 1)
+    _keep_faces_in_one_chart(scene, order, texels, page, chart, (width, height), page_count)
     # ... up to the rounding of xatlas's single-float UVs: snapped, so that a chart's edge
     # claims no sliver of the next texel (a texel of its own, of 1e-6 of its area).
     nearest = np.round(texels)
     texels = np.where(np.abs(texels - nearest) < SNAP_TEXELS, nearest, texels)
-    page_count = max(int(atlas.atlas_count), 1)
     packed = (page >= 0) & (page < page_count)   # xatlas marks a face it dropped 2^32 - 1
     return Atlas(width, height, page_count, order[packed], page[packed],
                  np.clip(texels[packed], 0.0, [width, height]), float(density),
                  unpacked=order[~packed], chart=chart[packed])
 
 
-def _keep_faces_in_one_chart(scene, order, texels, page, chart, size):
+def _keep_faces_in_one_chart(scene, order, texels, page, chart, size, page_count):
     """xatlas charts triangles, and may cut a chart through a face (a quad of a fluted
     column, between its two triangles): Blender keeps one UV per face corner, so such a face
     would show two charts' texels at once. Each such face's triangles are mapped into the
     chart of its largest one, by that triangle's affine map (world to texels), where the
     texels they come to hold belong to no other chart (the chart's padding); a face whose
     move would overlap another chart keeps its cut. ``texels``, ``page`` and ``chart``
-    (rows of ``order``) change in place."""
+    (rows of ``order``) change in place; faces xatlas dropped (on no page) are left out."""
     polygon = scene.polygon[order]
-    faces = polygon >= 0
+    packed = (page >= 0) & (page < page_count)
+    faces = (polygon >= 0) & packed
     rows = np.nonzero(faces)[0][np.argsort(polygon[faces], kind="stable")]
     starts = np.nonzero(np.r_[True, np.diff(polygon[rows]) != 0])[0]
     split = [group for group in np.split(rows, starts[1:]) if len(set(chart[group])) > 1]
@@ -150,13 +151,13 @@ def _keep_faces_in_one_chart(scene, order, texels, page, chart, size):
         return
     # Which chart holds each texel, from its triangles' texel boxes (only when a face is cut).
     width, height = size
-    owner = np.full((int(page.max()) + 1, height, width), -1, dtype=np.int64)
-    for row in range(len(order)):
+    owner = np.full((page_count, height, width), -1, dtype=np.int32)
+    for row in np.nonzero(packed)[0]:
         x0, y0, x1, y1 = _texel_box(texels[row])
         owner[page[row], y0:y1, x0:x1] = chart[row]
     for group in split:
-        uv_area = [abs(_cross(texels[r][1] - texels[r][0], texels[r][2] - texels[r][0]))
-                   for r in group]
+        edges = texels[group, 1:] - texels[group, :1]                  # (N, 2, 2)
+        uv_area = np.abs(edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 0, 1] * edges[:, 1, 0])
         for anchor in group[np.argsort(uv_area)[::-1]]:   # the largest triangle's chart first
             moved = _moved_into_chart(scene, order, texels, page, chart, group, anchor, owner,
                                       size)
@@ -189,13 +190,14 @@ def _moved_into_chart(scene, order, texels, page, chart, group, anchor, owner, s
 
 def _texel_box(corners):
     """x0, y0, x1, y1: the texels a triangle's corners (3, 2) span."""
-    low = np.floor(corners.min(axis=0) + 1e-6).astype(int)
-    high = np.ceil(corners.max(axis=0) - 1e-6).astype(int)
-    return low[0], low[1], high[0], high[1]
+    start, end = _texel_span(corners.min(axis=0), corners.max(axis=0))
+    return start[0], start[1], end[0], end[1]
 
 
-def _cross(a, b):
-    return a[0] * b[1] - a[1] * b[0]
+def _texel_span(low, high):
+    """The first texel and one past the last that points from ``low`` to ``high`` cover
+    (integers: texel i spans [i, i + 1); a float's width over an edge does not count)."""
+    return (np.floor(low + 1e-6).astype(np.int64), np.ceil(high - 1e-6).astype(np.int64))
 
 
 def _world_to_texels(world, corners):
@@ -238,8 +240,8 @@ def tight_packing(atlas, align=1):
     # The texels a chart's triangles overlap, [floor(low), ceil(high)), and one empty column
     # and row after them: a corner rounded a float's width past its texel claims a sliver
     # of the next texel, which must not be another chart's.
-    start = np.floor(low + 1e-6).astype(np.int64)
-    size = np.ceil(high - 1e-6).astype(np.int64) + 1 - start
+    start, end = _texel_span(low, high)
+    size = end + 1 - start
     origins, extent = _shelf_pack(size, chart_page, atlas.page_count, align)
     width, height = extent
     if (width * height > TIGHT_PACKING_GAIN * atlas.width * atlas.height

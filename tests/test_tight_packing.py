@@ -101,32 +101,60 @@ def test_furnace_of_many_small_charts(ctx, gl_clean):
     np.testing.assert_allclose(values, albedo / (1 - albedo), rtol=0.02)
 
 
+def temple_column(*extra):
+    """Column 01 exported from sample_blends/temple.blend (its faces numbered), a point light
+    over it, and ``extra`` quads (name, corners) with faces of their own."""
+    temple = Scene.load(ROOT / "bench" / "scenes" / "temple.npz")
+    keep = np.nonzero(temple.object_index == temple.object_names.index("column_01"))[0]
+    used, corners = np.unique(temple.triangles[keep], return_inverse=True)
+    vertices, triangles = [temple.vertices[used]], [corners.reshape(-1, 3)]
+    objects, faces = [np.zeros(len(keep), int)], [temple.polygon[keep]]
+    names = ["column_01"]
+    count, face = len(used), int(temple.polygon[keep].max()) + 1
+    for index, (name, quad) in enumerate(extra, start=1):
+        vertices.append(np.array(quad, dtype=float))
+        triangles.append(count + np.array([[0, 1, 2], [0, 2, 3]]))
+        objects.append(np.full(2, index))
+        faces.append(np.full(2, face + index))
+        names.append(name)
+        count += 4
+    return Scene(vertices=np.concatenate(vertices), triangles=np.concatenate(triangles),
+                 object_index=np.concatenate(objects), object_names=names,
+                 polygon=np.concatenate(faces),
+                 lights=[PointLight(position=(0.0, 0.0, 20.0), power=1.0)])
+
+
+def faces_cut(scene, atlas):
+    """How many faces' triangles disagree on the texel corners they share."""
+    row_of = np.full(len(scene.triangles), -1)
+    row_of[atlas.triangles] = np.arange(len(atlas.triangles))
+    cut = 0
+    for face in np.unique(scene.polygon):
+        corner_uv = {}
+        for triangle in np.nonzero((scene.polygon == face) & (row_of >= 0))[0]:
+            for vertex, uv in zip(scene.triangles[triangle], atlas.texels[row_of[triangle]]):
+                corner_uv.setdefault(vertex, []).append(uv)
+        cut += any(np.ptp(np.array(uvs), axis=0).max() > 1e-6 for uvs in corner_uv.values())
+    return cut
+
+
 def test_a_face_keeps_its_triangles_in_one_chart():
     """Blender keeps one lightmap UV per face corner, so the two triangles of a quad must
     agree on the UVs of the corners they share. xatlas charts triangles and cut 16 quads of
     each of the temple's fluted columns between their triangles (then Cycles baked those
     faces across charts up to 286 texels apart); the atlas moves such a face's triangles
-    into one chart. Checked on a column exported from sample_blends/temple.blend."""
-    temple = Scene.load(ROOT / "bench" / "scenes" / "temple.npz")
-    column = temple.object_index == temple.object_names.index("column_01")
-    lamp = temple.emission.max(axis=1) > 0   # a scene needs light; none is on the column
-    keep = np.nonzero(column)[0]
-    used, corners = np.unique(temple.triangles[keep], return_inverse=True)
-    scene = Scene(vertices=temple.vertices[used], triangles=corners.reshape(-1, 3),
-                  polygon=temple.polygon[keep],
-                  lights=[PointLight(position=(0.0, 0.0, 20.0), power=1.0)])
-    assert not lamp[keep].any()
-    atlas = build_atlas(scene, 2.0)
-    row_of = np.full(len(scene.triangles), -1)
-    row_of[atlas.triangles] = np.arange(len(atlas.triangles))
-    faces_cut = 0
-    for face in np.unique(scene.polygon):
-        triangles = np.nonzero(scene.polygon == face)[0]
-        corner_uv = {}
-        for triangle in triangles:
-            for vertex, uv in zip(scene.triangles[triangle], atlas.texels[row_of[triangle]]):
-                corner_uv.setdefault(vertex, []).append(uv)
-        faces_cut += any(np.ptp(np.array(uvs), axis=0).max() > 1e-6
-                         for uvs in corner_uv.values())
+    into one chart."""
+    scene = temple_column()
     assert len(np.unique(scene.polygon)) > 400
-    assert faces_cut == 0
+    assert faces_cut(scene, build_atlas(scene, 2.0)) == 0
+
+
+def test_faces_stay_whole_beside_a_face_too_small_to_chart():
+    """A 0.1 micrometre square in a 2 km scene is left out of the atlas (xatlas puts it on
+    no page); the column's faces are still kept whole, and the square is listed."""
+    floor = [(-1000, -1000, -1), (1000, -1000, -1), (1000, 1000, -1), (-1000, 1000, -1)]
+    speck = [(5, 5, 1), (5 + 1e-7, 5, 1), (5 + 1e-7, 5 + 1e-7, 1), (5, 5 + 1e-7, 1)]
+    scene = temple_column(("floor", floor), ("speck", speck))
+    atlas = build_atlas(scene, 2.0)
+    assert sorted(atlas.unpacked) == list(np.nonzero(scene.object_index == 2)[0])
+    assert faces_cut(scene, atlas) == 0
