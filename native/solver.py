@@ -343,18 +343,15 @@ class Solver:
         return lands * bounced / (math.pi * area) / (1.0 - lands * mean_albedo)
 
     def _map_totals(self):
-        """Sums over every texel of the maps, in double precision: area, albedo x area, the
-        irradiance received and absorbed (W) and the unshot power (W, with pending lights)."""
-        totals = {key: np.zeros(3) for key in ("absorbed", "received", "unshot", "albedo_area")}
-        totals["area"] = 0.0
+        """Sums over every texel of the maps, in double precision: the irradiance received and
+        absorbed (W) and the unshot power (W, with pending lights)."""
+        totals = {key: np.zeros(3) for key in ("absorbed", "received", "unshot")}
         for page in self._pages:
             maps = {name: self._read(page.textures[name])
-                    for name in ("position", "material", "irradiance", "unshot")}
-            area = maps["position"][..., 3:4].astype(np.float64)
+                    for name in ("material", "irradiance", "unshot")}
+            area = page.area[..., None].astype(np.float64)
             albedo = maps["material"][..., :3] * (maps["material"][..., 3:4] > 0)
             irradiance = maps["irradiance"][..., :3] * area
-            totals["area"] += float(area.sum())
-            totals["albedo_area"] += (albedo * area).reshape(-1, 3).sum(axis=0)
             totals["received"] += irradiance.reshape(-1, 3).sum(axis=0)
             totals["absorbed"] += ((1.0 - albedo) * irradiance).reshape(-1, 3).sum(axis=0)
             totals["unshot"] += math.pi * (maps["unshot"][..., :3] * area).reshape(-1, 3).sum(axis=0)
