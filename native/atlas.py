@@ -23,6 +23,12 @@ class Atlas:
     density: float
     unpacked: np.ndarray = None  # scene triangles xatlas left out (too small): no texels
     chart: np.ndarray = None     # (C,) the chart of each charted triangle, numbered per atlas
+    # Per object: its page (-1 without texels), where its layout's corner sits on the page and
+    # within its block (whole texels), as Scene.object_layout/slot/block ask.
+    object_page: np.ndarray = None
+    object_origin: np.ndarray = None
+    object_offset: np.ndarray = None
+    shrunk: list = None     # objects charted coarser than the density to fit one page
 
     def uv(self):
         """Corner coordinates normalised to [0, 1] on their page (v up, as Blender's UVs)."""
@@ -47,12 +53,14 @@ XATLAS_SETTLE_SECONDS = 0.1
 _generated = []   # (xatlas.Atlas, when its generate() returned)
 
 
-def build_atlas(scene, density, max_size=4096, padding=2, charted=None):
+def build_atlas(scene, density, max_size=4096, padding=2, charted=None, align=1):
     """Chart and pack the triangles flagged in ``charted`` (receivers and emitters by default).
 
-    Each object is its own xatlas mesh, so charts never join across objects, and its texel
-    density is multiplied by the scene's object_texel_scale. When the atlas
-    would exceed ``max_size`` texels on a side, xatlas fills several pages of that size.
+    Each layout (an object, or the copies of one mesh) is charted by xatlas on its own, at
+    the texel density times the scene's object_texel_scale, so that charts never join across
+    objects and each object is whole on one page; the blocks of objects are then packed on
+    pages of at most ``max_size`` texels a side (see Scene.object_layout), each layout's
+    corner at a multiple of ``align`` texels (the solver's shooting blocks).
     """
     if not np.isfinite(density) or density <= 0.0:
         raise SettingsError(f"texel density must be a positive number of texels per metre, "
@@ -63,11 +71,11 @@ def build_atlas(scene, density, max_size=4096, padding=2, charted=None):
     if len(chosen) == 0:
         raise SettingsError("no triangle receives a lightmap: enable 'receive' on an object")
 
-    key = _cache_key(scene, chosen, density, max_size, padding)
+    key = _cache_key(scene, chosen, density, max_size, padding) + (int(align),)
     if key in _cache:
         _cache.move_to_end(key)
         return _copy(_cache[key])
-    result = _build(scene, chosen, density, max_size, padding)
+    result = _build(scene, chosen, density, max_size, padding, align)
     _cache[key] = _copy(result)
     while len(_cache) > CACHED_ATLASES:
         _cache.popitem(last=False)
@@ -84,53 +92,198 @@ def clear_cache():
     _cache.clear()
 
 
-def _build(scene, chosen, density, max_size, padding):
+def _build(scene, chosen, density, max_size, padding, align):
     _destroy_settled_atlases()
-    mesh_triangles = [chosen[scene.object_index[chosen] == obj]
-                      for obj in np.unique(scene.object_index[chosen])]
     units = _units_per_metre(scene, chosen, density)
-    atlas = _atlas_of(scene, mesh_triangles, units)
+    of_object = {int(obj): chosen[scene.object_index[chosen] == obj]
+                 for obj in np.unique(scene.object_index[chosen])}
+    copies = {}
+    for obj in of_object:
+        copies.setdefault(int(scene.object_layout[obj]), []).append(obj)
+    layouts = {}
+    for layout, objects in copies.items():
+        scale = np.asarray(scene.object_texel_scale)[objects] ** 2
+        largest = objects[int(np.argmax([scene.triangle_area[of_object[obj]].sum() * s
+                                         for obj, s in zip(objects, scale)]))]
+        for obj in objects:
+            if len(of_object[obj]) != len(of_object[largest]):
+                raise SettingsError(
+                    f"objects '{scene.object_names[obj]}' and "
+                    f"'{scene.object_names[largest]}' share a layout but chart "
+                    f"{len(of_object[obj])} and {len(of_object[largest])} triangles")
+        layouts[layout] = _chart_layout(scene, of_object[largest], units, density,
+                                        max_size - align, padding)
 
+    placed = [obj for obj in of_object if layouts[int(scene.object_layout[obj])].size.min() > 0]
+    sizes = {obj: -(-(layouts[int(scene.object_layout[obj])].size + padding) // align) * align
+             for obj in placed}
+    offset = _slot_offsets(scene, placed, sizes, max_size)
+    page, origin, (width, height) = _place_blocks(scene, placed, sizes, offset, max_size)
+
+    objects = len(scene.object_names)
+    object_page = np.full(objects, -1, dtype=np.int64)
+    object_origin = np.zeros((objects, 2), dtype=np.int64)
+    object_offset = np.zeros((objects, 2), dtype=np.int64)
+    rows = {"triangles": [], "page": [], "texels": [], "chart": [], "unpacked": []}
+    charts = 0
+    for obj in of_object:
+        layout = layouts[int(scene.object_layout[obj])]
+        members = of_object[obj]
+        rows["unpacked"].append(members[~layout.packed])
+        if obj not in page:
+            continue
+        object_page[obj], object_origin[obj], object_offset[obj] = page[obj], origin[obj], offset[obj]
+        rows["triangles"].append(members[layout.packed])
+        rows["page"].append(np.full(int(layout.packed.sum()), page[obj]))
+        rows["texels"].append(layout.texels[layout.packed] + origin[obj])
+        rows["chart"].append(layout.chart[layout.packed] + charts)
+        charts += layout.chart_count
+    joined = {name: np.concatenate(values) if values else np.zeros(0, dtype=np.int64)
+              for name, values in rows.items()}
+    texels = joined["texels"].reshape(-1, 3, 2).astype(np.float64)
+    return Atlas(width, height, max(int(joined["page"].max(initial=0)) + 1, 1),
+                 joined["triangles"].astype(np.int64), joined["page"].astype(np.int64),
+                 texels, float(density), unpacked=joined["unpacked"].astype(np.int64),
+                 chart=joined["chart"].astype(np.int64), object_page=object_page,
+                 object_origin=object_origin, object_offset=object_offset,
+                 shrunk=sorted(obj for obj in of_object
+                               if layouts[int(scene.object_layout[obj])].shrunk))
+
+
+@dataclass
+class _Layout:
+    """One mesh's charts on a page of their own: texels (N, 3, 2) of its charted triangles
+    from the layout's corner, their chart (numbered in the layout), which xatlas packed."""
+    texels: np.ndarray
+    chart: np.ndarray
+    packed: np.ndarray
+    size: np.ndarray        # (2,) width and height in texels
+    chart_count: int
+    shrunk: bool            # charted coarser than the density, to fit one page
+
+
+def _chart_layout(scene, members, units, density, max_size, padding):
+    """xatlas charts one object's triangles and packs them on one page of at most
+    ``max_size`` (less the padding after it); a mesh too large for it is charted coarser
+    until it fits."""
     chart_options = xatlas.ChartOptions()
     pack_options = xatlas.PackOptions()
-    pack_options.texels_per_unit = float(density) / units
     pack_options.padding = int(padding)
     pack_options.bilinear = True
     pack_options.max_chart_size = int(max_size - 2 * padding - 2)
-    _generate(atlas, chart_options, pack_options)
-    if atlas.width > max_size or atlas.height > max_size:
-        atlas = _atlas_of(scene, mesh_triangles, units)
-        pack_options.resolution = int(max_size)
+    fits = max_size - padding
+    texels_per_unit = float(density) / units
+    for _ in range(8):
+        pack_options.texels_per_unit = texels_per_unit
+        atlas = _atlas_of(scene, [members], units)
         _generate(atlas, chart_options, pack_options)
-
+        if max(atlas.width, atlas.height) <= fits and atlas.atlas_count <= 1:
+            break
+        texels_per_unit *= 0.97 * fits / max(atlas.width, atlas.height, fits + 1)
+    else:
+        raise SettingsError(f"object '{scene.object_name(members[0])}' does not fit one "
+                            f"{max_size}-texel lightmap page: lower the texel density")
     width, height = int(atlas.width), int(atlas.height)
-    texels = np.zeros((len(chosen), 3, 2))
-    page = np.zeros(len(chosen), dtype=np.int64)
-    chart = np.full(len(chosen), -1, dtype=np.int64)
-    order = np.concatenate(mesh_triangles)
-    row = charts = 0
-    for mesh, members in enumerate(mesh_triangles):
-        _, indices, uvs = atlas[mesh]
-        pages, _ = atlas.get_mesh_vertex_assignment(mesh)
-        corners = uvs[indices.reshape(-1, 3)].astype(np.float64)
-        # xatlas puts texel centres on integer + 0.5 coordinates of its charts; shifting by
-        # half a texel makes a chart of whole texels cover whole texels.
-        texels[row:row + len(members)] = corners * [width, height] - 0.5
-        page[row:row + len(members)] = pages[indices.reshape(-1, 3)[:, 0]]
-        for index in range(atlas.get_mesh_chart_count(mesh)):
-            chart[row + atlas.get_mesh_chart(mesh, index).faces.astype(np.int64)] = charts
-            charts += 1
-        row += len(members)
-    page_count = max(int(atlas.atlas_count), 1)
-    _keep_faces_in_one_chart(scene, order, texels, page, chart, (width, height), page_count)
+    _, indices, uvs = atlas[0]
+    corners = indices.reshape(-1, 3)
+    pages, _ = atlas.get_mesh_vertex_assignment(0)
+    # xatlas puts texel centres on integer + 0.5 coordinates of its charts; shifting by
+    # half a texel makes a chart of whole texels cover whole texels.
+    texels = uvs[corners].astype(np.float64) * [width, height] - 0.5
+    page = pages[corners[:, 0]].astype(np.int64)
+    chart = np.full(len(members), -1, dtype=np.int64)
+    chart_count = atlas.get_mesh_chart_count(0)
+    for index in range(chart_count):
+        chart[atlas.get_mesh_chart(0, index).faces.astype(np.int64)] = index
+    _keep_faces_in_one_chart(scene, members, texels, page, chart, (width, height), 1)
     # ... up to the rounding of xatlas's single-float UVs: snapped, so that a chart's edge
     # claims no sliver of the next texel (a texel of its own, of 1e-6 of its area).
     nearest = np.round(texels)
-    texels = np.where(np.abs(texels - nearest) < SNAP_TEXELS, nearest, texels)
-    packed = (page >= 0) & (page < page_count)   # xatlas marks a face it dropped 2^32 - 1
-    return Atlas(width, height, page_count, order[packed], page[packed],
-                 np.clip(texels[packed], 0.0, [width, height]), float(density),
-                 unpacked=order[~packed], chart=chart[packed])
+    texels = np.clip(np.where(np.abs(texels - nearest) < SNAP_TEXELS, nearest, texels),
+                     0.0, [width, height])
+    packed = page == 0      # xatlas marks a face it dropped 2^32 - 1
+    if not packed.any():
+        width = height = 0
+    return _Layout(texels, chart, packed, np.array([width, height], dtype=np.int64),
+                   chart_count, texels_per_unit < float(density) / units)
+
+
+def _slot_offsets(scene, placed, sizes, max_size):
+    """Each slot's offset (whole texels) within the blocks it is in. Slots that share a block,
+    directly or through a chain of blocks, are laid out side by side in one frame, so that
+    every block finds its slots apart wherever they also appear."""
+    slot = {obj: int(scene.object_slot[obj]) for obj in placed}
+    parent = {s: s for s in slot.values()}
+
+    def root(s):
+        while parent[s] != s:
+            parent[s] = parent[parent[s]]
+            s = parent[s]
+        return s
+    first_of_block = {}
+    for obj in placed:
+        block = int(scene.object_block[obj])
+        other = first_of_block.setdefault(block, slot[obj])
+        parent[root(slot[obj])] = root(other)
+    size_of_slot = {slot[obj]: sizes[obj] for obj in placed}
+    frames = {}
+    for s in size_of_slot:
+        frames.setdefault(root(s), []).append(s)
+    offset_of_slot = {}
+    for members in frames.values():
+        boxes = np.array([size_of_slot[s] for s in members])
+        origins, _ = _pack(boxes, max_size, pages=False)
+        offset_of_slot.update(zip(members, origins))
+    return {obj: np.asarray(offset_of_slot[slot[obj]], dtype=np.int64) for obj in placed}
+
+
+def _place_blocks(scene, placed, sizes, offset, max_size):
+    """Pages and origins of each object: its block's box (around its slots) packed on
+    pages of at most ``max_size``. Returns ({obj: page}, {obj: origin}, (width, height))."""
+    members = {}
+    for obj in placed:
+        members.setdefault(int(scene.object_block[obj]), []).append(obj)
+    blocks = list(members)
+    low = np.array([np.min([offset[o] for o in members[b]], axis=0) for b in blocks])
+    high = np.array([np.max([offset[o] + sizes[o] for o in members[b]], axis=0)
+                     for b in blocks])
+    if not blocks:
+        return {}, {}, (1, 1)
+    if (high - low).max() > max_size:
+        big = blocks[int(np.argmax((high - low).max(axis=1)))]
+        raise SettingsError(f"the objects shown with '{scene.object_names[members[big][0]]}' "
+                            f"do not fit one {max_size}-texel lightmap page together: lower "
+                            "the texel density or raise the largest image size")
+    origins, pages = _pack(high - low, max_size, pages=True)
+    page, origin = {}, {}
+    for index, block in enumerate(blocks):
+        for obj in members[block]:
+            page[obj] = int(pages[index])
+            origin[obj] = origins[index] - low[index] + offset[obj]
+    extent = np.max(origins + (high - low), axis=0)
+    return page, origin, (int(extent[0]), int(extent[1]))
+
+
+def _pack(boxes, max_size, pages):
+    """Shelves of boxes (N, 2), tallest first, in a width near the root of their area (at most
+    ``max_size``); with ``pages``, a box that would pass ``max_size`` in height starts the
+    next page. Returns the origins (N, 2) and each box's page."""
+    boxes = np.asarray(boxes, dtype=np.int64).reshape(-1, 2)
+    width = int(min(max_size, max(boxes[:, 0].max(initial=1),
+                                  math.ceil(math.sqrt(boxes.prod(axis=1).sum()) * 1.05))))
+    origins = np.zeros_like(boxes)
+    page = np.zeros(len(boxes), dtype=np.int64)
+    x = y = shelf = current = 0
+    for box in np.lexsort((-boxes[:, 0], -boxes[:, 1])):
+        box_width, box_height = boxes[box]
+        if x + box_width > width:
+            x, y, shelf = 0, y + shelf, 0
+        if pages and y + box_height > max_size:
+            x, y, shelf, current = 0, 0, 0, current + 1
+        origins[box], page[box] = (x, y), current
+        x += box_width
+        shelf = max(shelf, box_height)
+    return origins, page
 
 
 def _keep_faces_in_one_chart(scene, order, texels, page, chart, size, page_count):
@@ -302,7 +455,8 @@ def _cache_key(scene, chosen, density, max_size, padding):
     objects' texel scales, and the packing settings."""
     digest = hashlib.blake2b(digest_size=20)
     for array in (scene.vertices[scene.triangles[chosen]], scene.object_index[chosen],
-                  np.asarray(scene.object_texel_scale, dtype=np.float64), chosen):
+                  np.asarray(scene.object_texel_scale, dtype=np.float64), chosen,
+                  scene.object_layout, scene.object_slot, scene.object_block):
         array = np.ascontiguousarray(array)
         digest.update(str((array.dtype, array.shape)).encode())
         digest.update(array.tobytes())
@@ -311,7 +465,8 @@ def _cache_key(scene, chosen, density, max_size, padding):
 
 def _copy(atlas):
     return replace(atlas, triangles=atlas.triangles.copy(), page=atlas.page.copy(),
-                   texels=atlas.texels.copy(), unpacked=atlas.unpacked.copy())
+                   texels=atlas.texels.copy(), unpacked=atlas.unpacked.copy(),
+                   chart=atlas.chart.copy())
 
 
 def _units_per_metre(scene, chosen, density):

@@ -94,6 +94,13 @@ class Scene:
     triangles in one chart.
     object_index (T,) into object_names, used in messages and by the add-on;
     object_texel_scale, one factor per object name, multiplies the texel density there.
+    object_layout, object_slot, object_block (one integer per object name; each object its
+    own by default) say how the atlas lays objects out, as Blender shows instances: objects
+    of one layout are copies of one mesh (their charted triangles correspond one to one, in
+    order) and share one chart layout, charted on the largest copy; each block (an object
+    shown by itself, or the objects one collection instance shows) is placed whole on one
+    page, and a slot (an object instanced in several blocks) sits at the same offset within
+    each block it is in, so that one offset per slot and one per block place every copy.
     albedo_texture_index (T,) into albedo_textures ((H, W, 3 or 4) linear float arrays, row 0
     at v = 0) sampled through albedo_uv (T, 3, 2); -1 for none. The texture is multiplied by
     the triangle's albedo.
@@ -116,6 +123,9 @@ class Scene:
     sky: tuple = (0.0, 0.0, 0.0)
     receive_back: np.ndarray = None
     polygon: np.ndarray = None
+    object_layout: np.ndarray = None
+    object_slot: np.ndarray = None
+    object_block: np.ndarray = None
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -153,6 +163,14 @@ class Scene:
             self.albedo_uv = np.ascontiguousarray(self.albedo_uv, dtype=np.float64)
         if self.object_texel_scale is None:
             self.object_texel_scale = [1.0] * len(self.object_names)
+        objects = len(self.object_names)
+        for name in ("object_layout", "object_slot", "object_block"):
+            value = getattr(self, name)
+            value = np.arange(objects) if value is None else np.asarray(value, dtype=np.int64)
+            if value.shape != (objects,):
+                raise SceneError(f"{name} needs one integer per object name, got shape "
+                                 f"{value.shape}")
+            setattr(self, name, value)
         self._validate()
 
     def object_name(self, triangle):
@@ -207,6 +225,14 @@ class Scene:
         scales = np.asarray(self.object_texel_scale, dtype=np.float64)
         if scales.shape != (len(self.object_names),) or not (np.isfinite(scales) & (scales > 0)).all():
             raise SceneError("object_texel_scale needs one positive factor per object name")
+
+        layouts_of_slot = np.unique(np.stack([self.object_slot, self.object_layout]), axis=1)[0]
+        if len(layouts_of_slot) != len(np.unique(self.object_slot)):
+            raise SceneError("objects of one object_slot must share one object_layout")
+        pairs = np.stack([self.object_block, self.object_slot], axis=1)
+        if len(np.unique(pairs, axis=0)) != len(pairs):
+            raise SceneError("a block holds each object_slot once: give the second copy a "
+                             "slot of its own")
 
         textured = self.albedo_texture_index >= 0
         if textured.any():
@@ -294,6 +320,8 @@ class Scene:
             receive=extend(self.receive, receiving_back[backs]),
             object_index=extend(self.object_index, self.object_index[backs]),
             object_names=list(self.object_names), object_texel_scale=list(self.object_texel_scale),
+            object_layout=self.object_layout, object_slot=self.object_slot,
+            object_block=self.object_block,
             albedo_uv=None if self.albedo_uv is None else extend(self.albedo_uv,
                                                                 self.albedo_uv[backs][:, ::-1]),
             albedo_texture_index=extend(self.albedo_texture_index,

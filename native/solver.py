@@ -425,7 +425,7 @@ class Solver:
         self._check_surface_fits()
         started = time.perf_counter()
         self.atlas = build_atlas(scene, settings.texel_density, settings.max_atlas_size,
-                                 settings.padding)
+                                 settings.padding, align=1 << settings.shoot_level)
         # The GPU works on the charts packed tight; results go back to self.atlas's layout.
         self._packed, self._texel_map = tight_packing(self.atlas, 1 << settings.shoot_level)
         self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
@@ -614,10 +614,11 @@ class Solver:
         """The first density from ``density`` down in steps of 15 % whose atlas fits, or
         None when even 1/130 of it does not."""
         for _ in range(30):
+            align = 1 << self.settings.shoot_level
             if self._fits(tight_packing(build_atlas(self.scene, density,
                                                     self.settings.max_atlas_size,
-                                                    self.settings.padding),
-                                        1 << self.settings.shoot_level)[0]):
+                                                    self.settings.padding, align=align),
+                                        align)[0]):
                 return density
             density *= 0.85
         return None

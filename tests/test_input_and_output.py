@@ -96,8 +96,8 @@ def test_an_absurd_density_is_refused_before_xatlas_charts_it(ctx, gl_clean, mon
     import native.solver
     charted = []
     original = native.solver.build_atlas
-    monkeypatch.setattr(native.solver, "build_atlas", lambda scene, density, *args:
-                        charted.append(density) or original(scene, density, *args))
+    monkeypatch.setattr(native.solver, "build_atlas", lambda scene, density, *args, **kwargs:
+                        charted.append(density) or original(scene, density, *args, **kwargs))
     limit = 2 << 20
     with pytest.raises(GPUMemoryError) as error:
         Solver(cornell_box(), Settings(texel_density=1e6, memory_limit=limit), ctx=ctx)
