@@ -36,6 +36,11 @@ class BakeJob:
             self.export.warnings.append(f"'{name}': some triangles are too small to chart at "
                                         "this texel density: they cast shadows but get no "
                                         "lightmap; scale them up or raise the density")
+        for index in self.solver.atlas.shrunk:
+            self.export.warnings.append(
+                f"'{self.export.scene.object_names[index]}' is too large for one lightmap "
+                "image at this texel density and was baked coarser: raise Max Image Size "
+                "or lower its Resolution Scale (Object properties > Luxel)")
 
     @property
     def warnings(self):

@@ -1,15 +1,17 @@
 """The reversible "Show baked lighting" switch.
 
-On: each material of a baked object gets a few nodes of Luxel's (its lightmap through the
-lightmap UV map, shown as emission, plus the material's own emission) feeding a Material Output
-of Luxel's that becomes the active one, and the lightmap node becomes the active node, which
-Workbench's Texture colour shows through the active UV map, so the lightmap UV map becomes the
-active one of each baked mesh. Off: Luxel's nodes go, and the user's active output, active node
-and active UV map come back. Nothing of the user's nodes is edited, so the trees return
-exactly."""
+On: each material of a baked object gets a few nodes of Luxel's feeding a Material Output of
+Luxel's that becomes the active one: the lightmap UV map plus the object's and its instancer's
+offsets (Attribute nodes, Object and Instancer: writeback's luxel_object and luxel_instancer)
+read the page that the instancer's offset names, shown as emission, plus the material's own
+emission; on an object the bake did not reach (no luxel_object) the material shows its own
+shader. The first page's node becomes the active node, which Workbench's Texture colour shows
+through the active UV map, so the lightmap UV map becomes the active one of each baked mesh.
+Off: Luxel's nodes go, and the user's active output, active node and active UV map come back.
+Nothing of the user's nodes is edited, so the trees return exactly."""
 import bpy
 
-from .writeback import UV_MAP
+from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, PAGE_KEY, UV_MAP
 
 NODE_PREFIX = "Luxel "
 STATE_KEY = "luxel_display"      # the user's active output and active node while shown
@@ -43,10 +45,10 @@ def refresh(scene):
 
 def _show(scene):
     emission = scene.luxel.get("material_emission", {})
-    for material, image in _baked_materials(scene).items():
+    for material, pages in _baked_materials(scene).items():
         if material.node_tree is None:
             continue
-        _add_nodes(material, image, emission.get(material.name))
+        _add_nodes(material, pages, emission.get(material.name))
     active_uv_maps = {}
     for obj in scene.objects:
         layers = obj.data.uv_layers if obj.type == 'MESH' else None
@@ -59,17 +61,32 @@ def _show(scene):
 
 
 def _baked_materials(scene):
+    """{material: the page images (by page number) its baked objects' copies show}."""
+    pages = {image[PAGE_KEY]: image for image in bpy.data.images if PAGE_KEY in image
+             and image.name.startswith(f"Luxel {scene.name} ")}
+    shown = {}
+    for obj in scene.objects:       # instancers and objects shown by themselves
+        if INSTANCER_OFFSET in obj:
+            shown.setdefault(obj, set()).add(int(obj[INSTANCER_OFFSET][2]) - 1)
     found = {}
     for obj in scene.objects:
-        if obj.luxel.image is None or not obj.luxel.uv_map:
+        if obj.luxel.image is None or not obj.luxel.uv_map or OBJECT_OFFSET not in obj:
             continue
+        used = set().union(*(numbers for owner, numbers in shown.items()
+                             if owner == obj or _instances(owner, obj)))
         for slot in obj.material_slots:
             if slot.material is not None:
-                found.setdefault(slot.material, obj.luxel.image)
+                found.setdefault(slot.material, {}).update(
+                    {number: pages[number] for number in used if number in pages})
     return found
 
 
-def _add_nodes(material, image, own_emission):
+def _instances(owner, obj):
+    collection = owner.instance_collection if owner.instance_type == 'COLLECTION' else None
+    return collection is not None and obj.name in collection.all_objects
+
+
+def _add_nodes(material, pages, own_emission):
     tree = material.node_tree
     nodes, links = tree.nodes, tree.links
     outputs = [n for n in nodes if n.bl_idname == 'ShaderNodeOutputMaterial']
@@ -86,26 +103,75 @@ def _add_nodes(material, image, own_emission):
         node.location = (left + x, top)
         return node
 
-    uv = add('ShaderNodeUVMap', "UV", 0)
+    uv = add('ShaderNodeUVMap', "UV", -600)
     uv.uv_map = UV_MAP
-    texture = add('ShaderNodeTexImage', "Lightmap", 200)
-    texture.image = image
-    texture.interpolation = 'Linear'
-    shader = add('ShaderNodeEmission', "Baked Light", 500)
-    links.new(uv.outputs["UV"], texture.inputs["Vector"])
-    links.new(texture.outputs["Color"], shader.inputs["Color"])
+    offsets = {}
+    for key, kind, y in ((OBJECT_OFFSET, 'OBJECT', -150), (INSTANCER_OFFSET, 'INSTANCER', -300)):
+        attribute = add('ShaderNodeAttribute', key, -600)
+        attribute.location.y += y
+        attribute.attribute_type, attribute.attribute_name = kind, key
+        offsets[key] = attribute.outputs["Vector"]
+    place = uv.outputs["UV"]
+    for key in offsets:
+        total = add('ShaderNodeVectorMath', "Place " + key, -400)
+        links.new(place, total.inputs[0])
+        links.new(offsets[key], total.inputs[1])
+        place = total.outputs[0]
+    numbers = add('ShaderNodeSeparateXYZ', "Page", -400)
+    numbers.location.y -= 300
+    links.new(offsets[INSTANCER_OFFSET], numbers.inputs[0])
+    light, first = None, None
+    for index, (number, image) in enumerate(sorted(pages.items())):
+        texture = add('ShaderNodeTexImage', f"Lightmap {number}", -200 + 300 * index)
+        texture.image = image
+        texture.interpolation = 'Linear'
+        texture.extension = 'CLIP'      # a stale modifier's UVs fall off the page: black
+        links.new(place, texture.inputs["Vector"])
+        first = first or texture
+        if light is None:
+            light = texture.outputs["Color"]
+            continue
+        this_page = add('ShaderNodeMath', f"Page {number}", -200 + 300 * index)
+        this_page.location.y -= 300
+        this_page.operation = 'COMPARE'
+        this_page.inputs[1].default_value, this_page.inputs[2].default_value = number + 1, 0.25
+        links.new(numbers.outputs["Z"], this_page.inputs[0])
+        choose = add('ShaderNodeMix', f"Choose {number}", -50 + 300 * index)
+        choose.data_type = 'RGBA'
+        links.new(this_page.outputs[0], choose.inputs["Factor"])
+        links.new(light, _socket(choose.inputs, "A_Color"))
+        links.new(texture.outputs["Color"], _socket(choose.inputs, "B_Color"))
+        light = _socket(choose.outputs, "Result_Color")
+    x = 300 * len(pages)
+    shader = add('ShaderNodeEmission', "Baked Light", x)
+    if light is not None:
+        links.new(light, shader.inputs["Color"])
     if own_emission is not None and max(own_emission) > 0.0:
-        glow = add('ShaderNodeEmission', "Own Emission", 500)
+        glow = add('ShaderNodeEmission', "Own Emission", x)
         glow.location.y -= 150
         glow.inputs["Color"].default_value = (*own_emission, 1.0)
-        total = add('ShaderNodeAddShader', "Sum", 700)
+        total = add('ShaderNodeAddShader', "Sum", x + 200)
         links.new(shader.outputs[0], total.inputs[0])
         links.new(glow.outputs[0], total.inputs[1])
         shader = total
-    output = add('ShaderNodeOutputMaterial', "Output", 900)
-    links.new(shader.outputs[0], output.inputs["Surface"])
+    # An object the bake did not reach shows the material's own shader.
+    baked = add('ShaderNodeSeparateXYZ', "Baked", x + 200)
+    baked.location.y -= 300
+    links.new(offsets[OBJECT_OFFSET], baked.inputs[0])
+    either = add('ShaderNodeMixShader', "Baked Or Own", x + 400)
+    links.new(baked.outputs["Z"], either.inputs["Fac"])
+    own = next((n for n in outputs if n.name == active_output), None)
+    if own is not None and own.inputs["Surface"].is_linked:
+        links.new(own.inputs["Surface"].links[0].from_socket, either.inputs[1])
+    links.new(shader.outputs[0], either.inputs[2])
+    output = add('ShaderNodeOutputMaterial', "Output", x + 600)
+    links.new(either.outputs[0], output.inputs["Surface"])
     output.is_active_output = True
-    nodes.active = texture
+    nodes.active = first
+
+
+def _socket(sockets, identifier):
+    return next(socket for socket in sockets if socket.identifier == identifier)
 
 
 def strip_display_nodes(material):

@@ -1,7 +1,6 @@
 """Blender scene -> native.Scene, through the evaluated depsgraph: world-space triangles with
 modifiers and instances applied, diffuse albedo and emission from the materials, Blender's lights
 and the world colour in Cycles' units. What cannot be mapped is approximated and reported."""
-from collections import Counter
 from dataclasses import dataclass, field
 import math
 
@@ -11,6 +10,7 @@ import numpy as np
 from ..native import PointLight, Scene, SceneError, SpotLight, SunLight
 from ..native.scene import triangle_areas
 from . import display
+from .writeback import MODIFIER
 
 MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (native checks < 1)
 DISK_SEGMENTS = 32
@@ -20,12 +20,21 @@ TEXTURE_TINT = (0.9999,) * 3       # the solver multiplies textures by it; it mu
 
 @dataclass
 class Receiver:
-    """A mesh object that gets a lightmap: its triangles in the scene and their loops in the
-    object's own mesh (the same loops as in the evaluated mesh, which the export checked)."""
+    """One shown copy of an object that gets a lightmap: its triangles in the scene and their
+    corners in its evaluated mesh. ``instancer_name`` is the object whose instance shows it
+    (the object itself when shown by itself): Blender's Attribute node tells copies apart
+    by it. ``uv_source`` is 'MESH' where the evaluated mesh has the object's own mesh's
+    corners (the lightmap UV map goes into the mesh) and 'SNAPSHOT' where modifiers, or a
+    curve, text or surface, make new ones (a modifier of Luxel's adds the UV map at the end
+    of the stack, from a snapshot of the evaluated corners' UVs)."""
     object_name: str
+    instancer_name: str
     object_index: int
+    layout: int                 # copies of one mesh share one chart layout
     first_triangle: int
-    loops: np.ndarray           # (T, 3) loop indices of each exported triangle
+    loops: np.ndarray           # (T, 3) corner indices of each exported triangle
+    corner_count: int           # corners of the evaluated mesh
+    uv_source: str
 
 
 @dataclass
@@ -53,13 +62,20 @@ class _Collector:
         self.polygon, self.polygon_count = [], 0
         self.albedo_uv, self.texture_index = [], []
         self.object_names, self.texel_scale = [], []
+        self.layout, self.slot, self.block = [], [], []
         self.vertex_count = 0
         self.triangle_count = 0
 
-    def add_object(self, name, texel_scale=1.0):
+    def add_object(self, name, texel_scale=1.0, layout=None, slot=None, block=None):
+        """A solver object; ``layout``, ``slot`` and ``block`` (any hashable keys) say how it
+        shares charts and placement with others (native.Scene.object_layout); by default it
+        shares nothing."""
+        index = len(self.object_names)
         self.object_names.append(name)
         self.texel_scale.append(texel_scale)
-        return len(self.object_names) - 1
+        for keys, key in ((self.layout, layout), (self.slot, slot), (self.block, block)):
+            keys.append(("own", index) if key is None else key)
+        return index
 
     def add(self, vertices, normals, triangles, obj, albedo, emission, two_sided, receive,
             occlude, albedo_uv, texture_index, receive_back=False, polygon=None):
@@ -87,6 +103,9 @@ class _Collector:
 
 
 RENDERABLE = {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT', 'LIGHT'}
+# Curves, text and surfaces come through the depsgraph as their evaluated meshes, instances
+# of themselves: the objects are left out, or they would be exported twice.
+AS_EVALUATED_MESH = {'CURVE', 'SURFACE', 'FONT'}
 
 
 def export_scene(context, depsgraph=None):
@@ -99,10 +118,12 @@ def export_scene(context, depsgraph=None):
     for instance in depsgraph.object_instances:
         exporter.add_instance(instance)
         exported.add(instance.object.original.name)
+    excluded = _excluded_objects(context.view_layer)
     # The viewport's depsgraph leaves out objects hidden in the viewport, though they render.
     for obj in scene.objects:
         if (obj.type in RENDERABLE and obj.name not in exported and not obj.hide_render
-                and obj.name not in exporter.hidden_by_collection):
+                and obj.name not in exporter.hidden_by_collection
+                and obj.name not in excluded):
             exporter.warn(f"'{obj.name}' renders but is hidden in the viewport, so it was not "
                           "baked: unhide it (eye or screen icon in the outliner) to include it")
     return exporter.finish()
@@ -119,7 +140,7 @@ class _Exporter:
         self.textures = []
         self.texture_of_image = {}
         self.emission_of_material = {}
-        self.data_users = Counter(o.data for o in bpy.data.objects if o.type == 'MESH')
+        self.shown_copies = set()
         self.hidden_by_collection = {obj.name for collection in bpy.data.collections
                                      if collection.hide_render
                                      for obj in collection.all_objects}
@@ -134,19 +155,21 @@ class _Exporter:
         original = obj.original
         if original.hide_render or original.name in self.hidden_by_collection:
             return
-        if instance.is_instance and (instance.parent.original.hide_render or
-                                     instance.parent.original.name in self.hidden_by_collection):
+        # A curve's or a text's evaluated mesh is an instance of the object itself.
+        instancer = instance.parent.original if instance.is_instance else original
+        if instancer.hide_render or instancer.name in self.hidden_by_collection:
             return
         matrix = np.array(instance.matrix_world, dtype=np.float64)
         if obj.type == 'LIGHT':
             self.add_light(obj, matrix)
-        elif obj.type in {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT'}:
+        elif obj.type in {'MESH', 'META'} or (obj.type in AS_EVALUATED_MESH
+                                               and instance.is_instance):
             name = original.name
-            if instance.is_instance:
-                name = f"{instance.parent.original.name}/{original.name}"
-            self.add_mesh_object(obj, name, matrix, instance.is_instance)
+            if instancer != original:
+                name = f"{instancer.name}/{original.name}"
+            self.add_mesh_object(obj, name, matrix, instancer)
 
-    def add_mesh_object(self, obj, name, matrix, is_instance):
+    def add_mesh_object(self, obj, name, matrix, instancer):
         original = obj.original
         try:
             mesh = obj.to_mesh()
@@ -158,40 +181,53 @@ class _Exporter:
                     self.warn(f"'{name}' is a mesh without faces: it renders nothing and was "
                               "skipped (add faces, or hide it from render)")
                 return
-            wants_receive = original.luxel.receive
-            receive = wants_receive and self._can_receive(obj, mesh, name, is_instance)
-            self._add_mesh(obj, mesh, name, matrix, receive,
-                           original.luxel.resolution_scale, original.luxel.back_faces)
+            self._add_mesh(obj, mesh, name, matrix, instancer)
         finally:
             obj.to_mesh_clear()
 
-    def _can_receive(self, obj, mesh, name, is_instance):
+    def _placement(self, obj, mesh, name, instancer, receive_back):
+        """The layout, slot and block keys of one shown copy of ``obj`` (see
+        Collector.add_object), its UV source, and whether it shows a lightmap."""
         original = obj.original
-        if is_instance:
-            self.warn(f"'{name}' is an instance: it occludes and emits but gets no lightmap "
-                      "(make the instance real to bake one)")
-            return False
-        if original.type != 'MESH':
-            self.warn(f"'{name}' is a {original.type.lower()}: it occludes and emits but gets no "
-                      "lightmap (convert it to a mesh to bake one)")
-            return False
-        if self.data_users[original.data] > 1:
-            self.warn(f"'{name}' shares its mesh '{original.data.name}' with other objects: it "
-                      "occludes and emits but gets no lightmap (Object > Relations > Make Single "
-                      "User, or turn off 'Receive Lightmap')")
-            return False
-        if (len(mesh.loops) != len(original.data.loops)
-                or len(mesh.polygons) != len(original.data.polygons)):
-            self.warn(f"'{name}': a modifier changes the topology, so the lightmap cannot be "
-                      "mapped onto the mesh; it occludes and emits but gets no lightmap (apply "
-                      "the modifier, or turn off 'Receive Lightmap')")
-            return False
-        if len(original.data.uv_layers) >= 8 and "LuxelLightmap" not in original.data.uv_layers:
+        settings = original.luxel
+        modified = [m for m in original.modifiers if m.name != MODIFIER and m.show_render]
+        same_corners = (original.type == 'MESH' and len(mesh.loops) == len(original.data.loops)
+                        and len(mesh.polygons) == len(original.data.polygons))
+        uv_source = 'MESH' if same_corners else 'SNAPSHOT'
+        # Copies of one mesh share its charts: a mesh's objects without modifiers, and every
+        # instance of one object (they show its one evaluated mesh).
+        shared = ("mesh", original.data.name) if same_corners and not modified else (
+            "object", original.name)
+        # A mirrored copy winds its triangles the other way: its corners do not match.
+        mirrored = bool(np.linalg.det(np.array(obj.matrix_world)[:3, :3]) < 0)
+        layout = shared + (settings.resolution_scale, receive_back, mirrored)
+        slot, block = ("slot", original.name), ("block", instancer.name)
+        shows = settings.receive
+        if original.type == 'META':
+            self.warn(f"'{name}' is a metaball: it reflects light and casts shadows but shows "
+                      "no lightmap, since a metaball has no UV map (Object > Convert > Mesh "
+                      "on a copy to bake one)")
+            shows = False
+        elif (slot, block) in self.shown_copies:
+            # Blender's materials see an instance's object and its top instancer only.
+            self.warn(f"'{name}' is shown more than once by '{instancer.name}' (vertex, face "
+                      "or particle instancing, or a collection instanced twice inside it): "
+                      "each copy reflects its own light, but the materials can show only the "
+                      "first one's lightmap; instance the collection from separate empties to "
+                      "show each")
+            slot = block = None
+            shows = False
+        if shows and uv_source == 'MESH' and len(original.data.uv_layers) >= 8 and (
+                "LuxelLightmap" not in original.data.uv_layers):
             raise SceneError(f"object '{name}' already has 8 UV maps, Blender's limit: remove "
                              "one so Luxel can add its lightmap UV map", name)
-        return True
+        if shows:
+            self.shown_copies.add((slot, block))
+        return layout, slot, block, uv_source, shows
 
-    def _add_mesh(self, obj, mesh, name, matrix, receive, texel_scale, back_faces='AUTO'):
+    def _add_mesh(self, obj, mesh, name, matrix, instancer):
+        original = obj.original
+        texel_scale, back_faces = original.luxel.resolution_scale, original.luxel.back_faces
         triangles_count = len(mesh.loop_triangles)
         if triangles_count == 0:
             return
@@ -252,12 +288,18 @@ class _Exporter:
 
         receive_back = back_faces == 'ON' or (back_faces == 'AUTO' and emission.max() > 0.0
                                               and _is_open(loop_vertex[loops]))
-        object_index = self.collector.add_object(name, texel_scale)
+        layout, slot, block, uv_source, shows = self._placement(obj, mesh, name, instancer,
+                                                                receive_back)
+        object_index = self.collector.add_object(name, texel_scale, layout, slot, block)
+        # Every surface receives in the solver, so that it reflects; only those whose object
+        # asks for one show a lightmap.
         first = self.collector.add(vertices, normals, triangles, object_index, albedo, emission,
-                                   True, receive, True, albedo_uv, texture_index, receive_back,
+                                   True, True, True, albedo_uv, texture_index, receive_back,
                                    polygon)
-        if receive:
-            self.receivers.append(Receiver(name, object_index, first, loops))
+        if shows:
+            self.receivers.append(Receiver(original.name, instancer.name, object_index,
+                                           self.collector.layout[object_index], first, loops,
+                                           len(mesh.loops), uv_source))
 
     def _usable_triangles(self, corners, name):
         """Triangles the solver accepts: finite corners and an area above native.Scene's
@@ -472,6 +514,10 @@ class _Exporter:
         if not c.triangles:
             raise SceneError("the scene has no visible mesh to bake: add a mesh, or make one "
                              "renderable (its camera icon in the outliner)")
+        numbered = lambda keys: np.unique([repr(key) for key in keys], return_inverse=True)[1]
+        layout = numbered(c.layout)
+        for receiver in self.receivers:
+            receiver.layout = int(layout[receiver.object_index])
         scene = Scene(
             vertices=np.concatenate(c.vertices), triangles=np.concatenate(c.triangles),
             normals=np.concatenate(c.normals), albedo=np.concatenate(c.albedo),
@@ -480,7 +526,9 @@ class _Exporter:
             receive=np.concatenate(c.receive), occlude=np.concatenate(c.occlude),
             receive_back=np.concatenate(c.receive_back), polygon=np.concatenate(c.polygon),
             object_index=np.concatenate(c.object_index), object_names=c.object_names,
-            object_texel_scale=c.texel_scale, albedo_uv=np.concatenate(c.albedo_uv),
+            object_texel_scale=c.texel_scale, object_layout=layout,
+            object_slot=numbered(c.slot), object_block=numbered(c.block),
+            albedo_uv=np.concatenate(c.albedo_uv),
             albedo_texture_index=np.concatenate(c.texture_index),
             albedo_textures=self.textures, lights=self.lights, sky=self.sky())
         return Export(scene, self.receivers, self.warnings, self.emission_of_material)
@@ -538,6 +586,24 @@ def _clamp_albedo(colour, material, exporter):
 
 def _srgb_to_linear(values):
     return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4)
+
+
+def _excluded_objects(view_layer):
+    """Objects only in collections excluded from the view layer (where collections that are
+    instanced usually live): they render through their instances, if at all."""
+    shown, excluded = set(), set()
+
+    def visit(layer_collection):
+        target = excluded if layer_collection.exclude else shown
+        target.update(obj.name for obj in layer_collection.collection.objects)
+        if not layer_collection.exclude:
+            for child in layer_collection.children:
+                visit(child)
+        else:
+            for child in layer_collection.collection.children_recursive:
+                excluded.update(obj.name for obj in child.objects)
+    visit(view_layer.layer_collection)
+    return excluded - shown
 
 
 def _is_open(corners):

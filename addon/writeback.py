@@ -12,6 +12,13 @@ from ..native import LuxelError, SettingsError, write_exr
 
 UV_MAP = "LuxelLightmap"
 PAGE_KEY = "luxel_page"          # ID property marking Luxel's images, with their page number
+OBJECT_OFFSET = "luxel_object"        # on objects: their slot's offset, and 1 for "baked"
+INSTANCER_OFFSET = "luxel_instancer"  # on instancers and objects: block offset, page + 1
+SNAPSHOT_PREFIX = "Luxel UV "    # the vertex-only meshes holding evaluated corners' UVs
+SNAPSHOT_ATTRIBUTE = "luxel_uv"
+NODE_GROUP = "Luxel Lightmap UV"
+MODIFIER = "Luxel Lightmap"     # the modifier of Luxel's that adds the lightmap UV map
+STALE_UV = -1000.0               # where a stale snapshot puts the UVs: off every page
 
 
 def image_name(scene, page):
@@ -59,7 +66,8 @@ def write_back(scene, export, atlas, pages):
     for image in images:
         _replace_page(scene, image, directory)
     for obj in scene.objects:
-        if obj.name not in baked and obj.luxel.uv_map:
+        if obj.name not in baked and (obj.luxel.uv_map or OBJECT_OFFSET in obj
+                                      or INSTANCER_OFFSET in obj):
             clear_object(obj)
     for name in previous - {image.name for image in images}:
         bpy.data.images.remove(bpy.data.images[name])
@@ -67,25 +75,67 @@ def write_back(scene, export, atlas, pages):
 
 
 def _write_receivers(export, atlas, images, undo):
-    """The lightmap UV map and ``luxel`` record of each receiver; returns their names."""
+    """The lightmap UV maps, offsets and ``luxel`` records of the receivers; returns the
+    names of the objects and instancers written.
+
+    A layout's UV map holds its charts from their layout's corner; each object adds the
+    offset of its slot (``luxel_object``, read by the Attribute node as Object) and each
+    instancer, or object shown by itself, that of its block and its page plus one
+    (``luxel_instancer``, read as Instancer, which falls back to the object's own). A layout
+    shown once has its whole place in the UV map, so that what reads the UV map alone
+    (Workbench, a Cycles bake) finds it."""
     row_of_triangle = np.full(len(export.scene.triangles), -1)
     # Back faces solved on texels of their own come after the scene's triangles: no UV map
     # shows them.
     front = atlas.triangles < len(row_of_triangle)
     row_of_triangle[atlas.triangles[front]] = np.nonzero(front)[0]
-    uv = atlas.uv()
-    baked = set()
+    page_size = np.array([atlas.width, atlas.height], dtype=np.float64)
+    shown = {}
     for receiver in export.receivers:
-        obj = bpy.data.objects[receiver.object_name]
-        rows = row_of_triangle[receiver.first_triangle:receiver.first_triangle
-                               + len(receiver.loops)]
-        _write_uv_map(obj.data, receiver.loops, uv[rows], undo)
-        page = np.bincount(atlas.page[rows]).argmax()
-        undo.append(lambda obj=obj, record=(obj.luxel.image, obj.luxel.uv_map):
-                    _set_record(obj, *record))
-        _set_record(obj, images[page], UV_MAP)
-        baked.add(obj.name)
-    return baked
+        shown.setdefault(receiver.layout, []).append(receiver)
+    written = set()
+    for receivers in shown.values():
+        whole = len(receivers) == 1
+        first = receivers[0]
+        rows = row_of_triangle[first.first_triangle:first.first_triangle + len(first.loops)]
+        origin = np.zeros(2) if whole else atlas.object_origin[first.object_index]
+        uv = (atlas.texels[rows] - origin) / page_size
+        for receiver in receivers:
+            obj = bpy.data.objects.get(receiver.object_name)
+            instancer = bpy.data.objects.get(receiver.instancer_name)
+            page = int(atlas.object_page[receiver.object_index])
+            offset = atlas.object_offset[receiver.object_index]
+            block = atlas.object_origin[receiver.object_index] - offset
+            if whole:
+                offset, block = np.zeros(2), np.zeros(2)
+            if obj.name not in written:
+                _write_uvs(obj, receiver, uv, undo)
+                _set_property(obj, OBJECT_OFFSET, [*(offset / page_size), 1.0], undo)
+                undo.append(lambda obj=obj, record=(obj.luxel.image, obj.luxel.uv_map):
+                            _set_record(obj, *record))
+                _set_record(obj, images[page], UV_MAP)
+                written.add(obj.name)
+            _set_property(instancer, INSTANCER_OFFSET, [*(block / page_size), page + 1.0],
+                          undo)
+            written.add(instancer.name)
+    return written
+
+
+def _set_property(obj, key, value, undo):
+    before = obj.get(key)
+    undo.append(lambda: obj.__setitem__(key, before) if before is not None
+                else obj.pop(key, None))
+    obj[key] = value
+
+
+def _write_uvs(obj, receiver, triangle_uv, undo):
+    if receiver.uv_source == 'MESH':
+        _remove_snapshot(obj)
+        _write_uv_map(obj.data, receiver.loops, triangle_uv, undo)
+    else:
+        if obj.type == 'MESH' and UV_MAP in obj.data.uv_layers:   # baked without modifiers
+            obj.data.uv_layers.remove(obj.data.uv_layers[UV_MAP])
+        _write_snapshot(obj, receiver, triangle_uv, undo)
 
 
 def _set_record(obj, image, uv_map):
@@ -94,13 +144,38 @@ def _set_record(obj, image, uv_map):
 
 
 def clear_object(obj):
-    """Remove the lightmap UV map and image reference a previous bake left on ``obj``."""
-    if obj.type == 'MESH':
+    """Remove what a previous bake left on ``obj``: its lightmap UV map or modifier and
+    snapshot, its offsets and its image reference."""
+    if obj.type == 'MESH' and obj.luxel.uv_map:
         layer = obj.data.uv_layers.get(obj.luxel.uv_map)
         if layer is not None:
             obj.data.uv_layers.remove(layer)
+    _remove_snapshot(obj)
+    for key in (OBJECT_OFFSET, INSTANCER_OFFSET):
+        obj.pop(key, None)
     obj.luxel.uv_map = ""
     obj.luxel.image = None
+
+
+def is_stale(obj, depsgraph):
+    """Whether the object's modifiers no longer make the corners its lightmap was baked for:
+    its modifier then shows no lightmap (UVs far outside the page), and the panel says so."""
+    snapshot = snapshot_of(obj)
+    if snapshot is None:
+        return False
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        return mesh is None or len(mesh.loops) != len(snapshot.data.vertices)
+    finally:
+        evaluated.to_mesh_clear()
+
+
+def snapshot_of(obj):
+    modifier = obj.modifiers.get(MODIFIER)
+    if modifier is None or modifier.type != 'NODES':
+        return None
+    return modifier.get(_snapshot_socket(modifier))
 
 
 def _page_image(scene, index, page, directory, undo):
@@ -209,3 +284,97 @@ def _active_render_index(layers):
         if layer.active_render:
             return index
     return -1
+
+
+# -------------------------------------------------------------- the modifier and its snapshot
+def _write_snapshot(obj, receiver, triangle_uv, undo):
+    """The evaluated corners' lightmap UVs, as a vertex per corner of a mesh of Luxel's, and
+    the modifier at the end of the object's stack that copies them onto the corners."""
+    corner_uv = np.zeros((receiver.corner_count, 3), dtype=np.float32)
+    corner_uv[receiver.loops.ravel(), :2] = triangle_uv.reshape(-1, 2)
+    name = SNAPSHOT_PREFIX + obj.name
+    mesh = bpy.data.meshes.new(name)
+    undo.append(lambda: bpy.data.meshes.remove(mesh))
+    mesh.vertices.add(receiver.corner_count)
+    attribute = mesh.attributes.new(SNAPSHOT_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT')
+    attribute.data.foreach_set("vector", corner_uv.ravel())
+    snapshot = snapshot_of(obj)
+    if snapshot is None:
+        snapshot = bpy.data.objects.new(name, mesh)
+        undo.append(lambda: bpy.data.objects.remove(snapshot))
+        modifier = obj.modifiers.new(MODIFIER, 'NODES')
+        undo.append(lambda: obj.modifiers.remove(obj.modifiers[MODIFIER]))
+        modifier.node_group = _node_group()
+        modifier.show_in_editmode = False
+        modifier[_snapshot_socket(modifier)] = snapshot
+    else:
+        before = snapshot.data
+        snapshot.data = mesh
+        undo.append(lambda: setattr(snapshot, "data", before))
+    # The modifier comes last, after any the user added since.
+    if obj.modifiers[-1].name != MODIFIER:
+        index = list(obj.modifiers).index(obj.modifiers[MODIFIER])
+        obj.modifiers.move(index, len(obj.modifiers) - 1)
+
+
+def _remove_snapshot(obj):
+    snapshot = snapshot_of(obj)
+    modifier = obj.modifiers.get(MODIFIER)
+    if modifier is not None:
+        obj.modifiers.remove(modifier)
+    if snapshot is not None:
+        mesh = snapshot.data
+        bpy.data.objects.remove(snapshot)
+        if mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+
+
+def _snapshot_socket(modifier):
+    return modifier.node_group.interface.items_tree["Snapshot"].identifier
+
+
+def _node_group():
+    """Luxel's geometry nodes: the snapshot's UV of each corner, by index, stored as the
+    lightmap UV map; far outside every page when the corners no longer match."""
+    group = bpy.data.node_groups.get(NODE_GROUP)
+    if group is not None:
+        return group
+    group = bpy.data.node_groups.new(NODE_GROUP, 'GeometryNodeTree')
+    interface = group.interface
+    interface.new_socket("Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
+    interface.new_socket("Snapshot", in_out='INPUT', socket_type='NodeSocketObject')
+    interface.new_socket("Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
+    nodes, links = group.nodes, group.links
+    inputs, outputs = nodes.new('NodeGroupInput'), nodes.new('NodeGroupOutput')
+    info = nodes.new('GeometryNodeObjectInfo')
+    links.new(inputs.outputs["Snapshot"], info.inputs["Object"])
+    sample = nodes.new('GeometryNodeSampleIndex')
+    sample.data_type, sample.domain = 'FLOAT_VECTOR', 'POINT'
+    links.new(info.outputs["Geometry"], sample.inputs["Geometry"])
+    stored = nodes.new('GeometryNodeInputNamedAttribute')
+    stored.data_type = 'FLOAT_VECTOR'
+    stored.inputs["Name"].default_value = SNAPSHOT_ATTRIBUTE
+    links.new(stored.outputs["Attribute"], sample.inputs["Value"])
+    links.new(nodes.new('GeometryNodeInputIndex').outputs[0], sample.inputs["Index"])
+    corners = nodes.new('GeometryNodeAttributeDomainSize')
+    corners.component = 'MESH'
+    links.new(inputs.outputs["Geometry"], corners.inputs[0])
+    points = nodes.new('GeometryNodeAttributeDomainSize')
+    points.component = 'MESH'
+    links.new(info.outputs["Geometry"], points.inputs[0])
+    same = nodes.new('FunctionNodeCompare')
+    same.data_type, same.operation = 'INT', 'EQUAL'
+    links.new(corners.outputs["Face Corner Count"], same.inputs[2])
+    links.new(points.outputs["Point Count"], same.inputs[3])
+    switch = nodes.new('GeometryNodeSwitch')
+    switch.input_type = 'VECTOR'
+    switch.inputs["False"].default_value = (STALE_UV, STALE_UV, 0.0)
+    links.new(same.outputs[0], switch.inputs["Switch"])
+    links.new(sample.outputs[0], switch.inputs["True"])
+    store = nodes.new('GeometryNodeStoreNamedAttribute')
+    store.data_type, store.domain = 'FLOAT2', 'CORNER'
+    store.inputs["Name"].default_value = UV_MAP
+    links.new(inputs.outputs["Geometry"], store.inputs["Geometry"])
+    links.new(switch.outputs[0], store.inputs["Value"])
+    links.new(store.outputs[0], outputs.inputs[0])
+    return group

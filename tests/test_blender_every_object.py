@@ -1,0 +1,190 @@
+"""Every object a user renders gets a lightmap, built the ways users build them: modifiers
+that change the topology, linked duplicates, collection instances (nested, and a collection
+both shown and instanced), curves and text. The truths: every shown copy's faces are covered
+by lightmap texels on the page its material reads, two instances of one collection under
+different light get different lightmaps (the nearer the lamp, the brighter), and the user's
+meshes and modifier stacks are unchanged apart from Luxel's additions."""
+import importlib
+
+import numpy as np
+
+import blender_scenes
+import blender_session
+
+bpy = blender_session.blender()
+writeback = importlib.import_module(blender_session.MODULE + ".addon.writeback")
+
+
+def modelled_room():
+    """A 6 x 4 m room lit by a point lamp near its left end; a sofa with Bevel and
+    Subdivision Surface, a shelf made by an Array, a vase by a Mirror, two linked duplicate
+    chairs, a collection (a stool) kept excluded and instanced at each end of the room, one
+    more instance of it nested in another instanced collection, a cable curve and a text
+    sign."""
+    scene = blender_session.empty_file()
+    grey = blender_scenes.material("Grey", (0.6, 0.6, 0.6))
+    blender_scenes.block(scene, "Room", (0, 0, 1.25), (6, 4, 2.5), grey)
+    room = bpy.data.objects["Room"]
+    room.data.flip_normals()            # the room's faces look inwards
+    blender_scenes.light(scene, "Lamp", 'POINT', (-2.4, 0, 2.0), energy=600.0)
+    sofa = blender_scenes.block(scene, "Sofa", (0.5, 1.4, 0.3), (1.6, 0.7, 0.6), grey)
+    sofa.modifiers.new("Bevel", 'BEVEL').width = 0.05
+    sofa.modifiers.new("Subdivision", 'SUBSURF').levels = 1
+    shelf = blender_scenes.block(scene, "Shelf", (-1.0, -1.7, 0.5), (0.3, 0.3, 1.0), grey)
+    array = shelf.modifiers.new("Array", 'ARRAY')
+    array.count, array.relative_offset_displace = 3, (1.2, 0, 0)
+    vase = blender_scenes.block(scene, "Vase", (0.6, -0.5, 0.2), (0.2, 0.2, 0.4), grey)
+    vase.modifiers.new("Mirror", 'MIRROR').use_axis = (True, False, False)
+    chair = blender_scenes.block(scene, "Chair", (1.5, 0.0, 0.25), (0.4, 0.4, 0.5), grey)
+    twin = chair.copy()                 # a linked duplicate: the same mesh
+    twin.name, twin.location = "ChairTwin", (2.2, 0.0, 0.25)
+    scene.collection.objects.link(twin)
+    stool_set = bpy.data.collections.new("StoolSet")
+    scene.collection.children.link(stool_set)
+    stool = blender_scenes.block(scene, "Stool", (0, 0, 0.2), (0.4, 0.4, 0.4), grey)
+    scene.collection.objects.unlink(stool)
+    stool_set.objects.link(stool)
+    bpy.context.view_layer.layer_collection.children["StoolSet"].exclude = True
+    for name, x in (("StoolNearLamp", -2.2), ("StoolFar", 2.4)):
+        empty = bpy.data.objects.new(name, None)
+        empty.instance_type, empty.instance_collection = 'COLLECTION', stool_set
+        empty.location = (x, 1.2, 0.0)
+        scene.collection.objects.link(empty)
+    corner = bpy.data.collections.new("Corner")
+    scene.collection.children.link(corner)
+    inner = bpy.data.objects.new("CornerStool", None)
+    inner.instance_type, inner.instance_collection = 'COLLECTION', stool_set
+    corner.objects.link(inner)
+    bpy.context.view_layer.layer_collection.children["Corner"].exclude = True
+    nested = bpy.data.objects.new("CornerInstance", None)
+    nested.instance_type, nested.instance_collection = 'COLLECTION', corner
+    nested.location = (0.0, -1.2, 0.0)
+    scene.collection.objects.link(nested)
+    curve = bpy.data.curves.new("Cable", 'CURVE')
+    curve.dimensions, curve.bevel_depth = '3D', 0.03
+    spline = curve.splines.new('POLY')
+    spline.points.add(1)
+    spline.points[0].co, spline.points[1].co = (-1.5, 1.9, 0.1, 1), (1.5, 1.9, 0.1, 1)
+    cable = bpy.data.objects.new("Cable", curve)
+    cable.data.materials.append(grey)
+    scene.collection.objects.link(cable)
+    text = bpy.data.curves.new("Sign", 'FONT')
+    text.body, text.extrude, text.size = "LUX", 0.02, 0.5
+    sign = bpy.data.objects.new("Sign", text)
+    sign.data.materials.append(grey)
+    sign.location, sign.rotation_euler = (0.0, 1.95, 1.5), (np.pi / 2, 0, np.pi)
+    scene.collection.objects.link(sign)
+    blender_scenes.luxel_settings(scene, density=8.0, threshold=0.02)
+    return scene
+
+
+def mesh_state(obj):
+    """What the user made: the mesh's positions, faces and UV maps but Luxel's, and the
+    modifier stack but Luxel's."""
+    mesh = obj.data
+    positions = np.empty(len(mesh.vertices) * 3)
+    mesh.vertices.foreach_get("co", positions)
+    faces = np.empty(len(mesh.loops), dtype=np.int64)
+    mesh.loops.foreach_get("vertex_index", faces)
+    layers = {}
+    for layer in mesh.uv_layers:
+        if layer.name != writeback.UV_MAP:
+            uv = np.empty(len(mesh.loops) * 2)
+            layer.uv.foreach_get("vector", uv)
+            layers[layer.name] = uv
+    return (positions, faces, layers,
+            [(m.name, m.type) for m in obj.modifiers if m.name != writeback.MODIFIER])
+
+
+def evaluated_lightmap(obj):
+    """The lightmap UV of each corner of the object's evaluated mesh (None without one)."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        layer = mesh.uv_layers.get(writeback.UV_MAP)
+        if layer is None:
+            return None
+        uv = np.empty(len(mesh.loops) * 2)
+        layer.uv.foreach_get("vector", uv)
+        return uv.reshape(-1, 2)
+    finally:
+        evaluated.to_mesh_clear()
+
+
+def shown_uv(obj, instancer):
+    """The page UVs the baked materials read for ``obj`` shown by ``instancer``: the UV map
+    plus the object's and the instancer's offsets, and the page."""
+    uv = evaluated_lightmap(obj)
+    offset = np.array(obj[writeback.OBJECT_OFFSET][:2])
+    block = instancer.get(writeback.INSTANCER_OFFSET) or obj[writeback.INSTANCER_OFFSET]
+    return uv + offset + np.array(block[:2]), int(block[2]) - 1
+
+
+def page_pixels(scene, page):
+    image = bpy.data.images[writeback.image_name(scene, page)]
+    width, height = image.size
+    pixels = np.empty(width * height * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    return pixels.reshape(height, width, 4)
+
+
+def mean_light(scene, uv, page):
+    """The lightmap's mean over the texels under the corners' UVs (nearest texel)."""
+    pixels = page_pixels(scene, page)
+    height, width = pixels.shape[:2]
+    x = np.clip((uv[:, 0] * width).astype(int), 0, width - 1)
+    y = np.clip((uv[:, 1] * height).astype(int), 0, height - 1)
+    return float(pixels[y, x, :3].mean())
+
+
+def test_every_rendered_object_gets_a_lightmap_and_the_users_data_stays():
+    scene = modelled_room()
+    users = ("Room", "Sofa", "Shelf", "Vase", "Chair", "ChairTwin")
+    before = {name: mesh_state(bpy.data.objects[name]) for name in users}
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    for name in users + ("Stool", "Cable", "Sign"):
+        obj = bpy.data.objects[name]
+        assert obj.luxel.image is not None, name
+        uv = evaluated_lightmap(obj)
+        assert uv is not None, name
+        # Every corner of the evaluated surface has a lightmap place on a page.
+        assert np.isfinite(uv).all() and (uv > -1.0).all(), name
+    for name, state in before.items():
+        after = mesh_state(bpy.data.objects[name])
+        np.testing.assert_array_equal(state[0], after[0])
+        np.testing.assert_array_equal(state[1], after[1])
+        assert state[2].keys() == after[2].keys()
+        for layer in state[2]:
+            np.testing.assert_array_equal(state[2][layer], after[2][layer])
+        assert state[3] == after[3], name
+    # Modifiers stay live; Luxel's comes last where the topology changed.
+    for name in ("Sofa", "Shelf", "Vase"):
+        assert bpy.data.objects[name].modifiers[-1].name == writeback.MODIFIER
+    assert [m.type for m in bpy.data.objects["Sofa"].modifiers] == ['BEVEL', 'SUBSURF', 'NODES']
+
+    # Each shown copy of the stool has its own texels, and the one near the lamp is the
+    # brighter; the linked duplicates' texels differ too.
+    stool = bpy.data.objects["Stool"]
+    places = {name: shown_uv(stool, bpy.data.objects[name])
+              for name in ("StoolNearLamp", "StoolFar", "CornerInstance")}
+    assert len({(tuple(np.round(uv[0], 6)), page) for uv, page in places.values()}) == 3
+    near = mean_light(scene, *places["StoolNearLamp"])
+    far = mean_light(scene, *places["StoolFar"])
+    assert near > 1.5 * far > 0.0
+    chair, twin = bpy.data.objects["Chair"], bpy.data.objects["ChairTwin"]
+    assert chair.data == twin.data
+    assert not np.allclose(shown_uv(chair, chair)[0], shown_uv(twin, twin)[0])
+
+
+def test_a_changed_stack_makes_the_lightmap_stale_not_garbage():
+    modelled_room()
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    sofa = bpy.data.objects["Sofa"]
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    assert not writeback.is_stale(sofa, depsgraph)
+    sofa.modifiers["Subdivision"].levels = 2
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    assert writeback.is_stale(sofa, depsgraph)
+    # Off every page: the lightmap node (extension CLIP) shows black there.
+    assert (evaluated_lightmap(sofa) < -1.0).all()
