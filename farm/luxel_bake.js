@@ -18,7 +18,8 @@ const JOB_TYPE = {
     description: "Bake Luxel radiosity lightmaps for one or more .blend files, one task per file",
     settings: [
         { key: "blendfiles", type: "string", required: true, eval: "bpy.data.filepath",
-          description: `The .blend files to bake, separated by "${SEPARATOR}"; paths the Workers can open` },
+          description: `The .blend files to bake, separated by "${SEPARATOR}", `
+              + "as paths the Workers can open" },
         { key: "output_root", type: "string", subtype: "dir_path", required: true,
           description: "Folder for the lightmaps; every job writes into a new subfolder of it" },
         { key: "density", type: "float", required: true, default: 20.0,
@@ -26,7 +27,7 @@ const JOB_TYPE = {
           description: "Lightmap texels per metre of surface (luxel bake --density)" },
         { key: "threshold", type: "float", required: true, default: 0.01,
           propargs: { min: 0.0, max: 0.99, precision: 4 },
-          description: "Stop when this fraction of the emitted power is left unshot (--threshold)" },
+          description: "Stop when this fraction of the emitted power is unshot (--threshold)" },
         { key: "save", type: "bool", default: false,
           description: "Also save each .blend with its lightmaps, as a copy in its output folder" },
         { key: "job_output_dir", type: "string", subtype: "dir_path", visible: "web",
@@ -96,7 +97,8 @@ function blendfileList(value) {
         .map((file) => file.trim())
         .filter((file) => file !== "");
     if (files.length === 0) {
-        refuse("blendfiles", `is missing: list one or more .blend files separated by "${SEPARATOR}"`);
+        refuse("blendfiles",
+               `is missing: list one or more .blend files separated by "${SEPARATOR}"`);
     }
     const seen = new Set();
     for (const file of files) {

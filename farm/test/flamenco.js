@@ -162,7 +162,8 @@ if (require.main === module) {
             ["/Mixed path/with", "/Mixed path\\with/slash.txt"],
             ["C:/ünicode/is", "C:\\ünicode\\is\\awésom.tar.gz"],
             ["//SERVER/ünicode/is", "\\\\SERVER\\ünicode\\is\\awésom.tar.gz"],
-            ["//?/UNC/ComputerName/SharedFolder", "\\\\?\\UNC\\ComputerName\\SharedFolder\\Resource"],
+            ["//?/UNC/ComputerName/SharedFolder",
+             "\\\\?\\UNC\\ComputerName\\SharedFolder\\Resource"],
         ]) assert.equal(path.dirname(input), expect, input);
     });
 

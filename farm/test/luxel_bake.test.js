@@ -75,8 +75,12 @@ test("JOB_TYPE: label and settings as Flamenco's AvailableJobSetting allows", ()
         { blendfiles: ["string", true], output_root: ["string", true], density: ["float", true],
           threshold: ["float", true], save: ["bool", false] });
     assert.equal(byKey.output_root.subtype, "dir_path");
+    // The form starts at Luxel's own defaults (native/solver.py, Settings).
+    const solver = fs.readFileSync(nodePath.join(ROOT, "native", "solver.py"), "utf8");
+    const luxelDefault = (name) =>
+        Number(solver.match(new RegExp(`\\b${name}: float = ([\\d.]+)`))[1]);
     assert.deepEqual([byKey.density.default, byKey.threshold.default, byKey.save.default],
-                     [20, 0.01, false]);
+                     [luxelDefault("texel_density"), luxelDefault("threshold"), false]);
     // The add-on fills a setting named "blendfile" with its own packed copy of the open file.
     assert.equal(byKey.blendfile, undefined);
 });
@@ -205,7 +209,7 @@ test("with save on, the copy is saved in the task's output folder, not over the 
                                               "1-scene"));
 
         const saved = runSaveCopy(args, { bpyDir: scratch, variables: { BLEND: original } });
-        assert.equal(saved.status, 0, saved.stderr);
+        assert.equal(saved.status, 0, saved.stderr || String(saved.error));
         assert.equal(fs.readFileSync(nodePath.join(outputDir, "scene.blend"), "utf8"), "original");
 
         fs.rmSync(outputDir, { recursive: true });
