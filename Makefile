@@ -43,6 +43,11 @@ test: $(VENV)/.dev
 	$(BIN)/python -m pytest -q tests $(addprefix --ignore=,$(BLENDER_TESTS))
 	$(BIN)/python -m pytest -q $(BLENDER_TESTS)
 
+# The Flamenco job type's tests (farm/): Node's own test runner, no packages.
+.PHONY: test-farm
+test-farm:
+	node --test farm/test/
+
 # Luxel against Cycles on the Cornell box: out/compare/report.html and report.json.
 compare: $(VENV)/.blender
 	$(BIN)/python tools/blender.py -b sample_blends/cornell_box.blend --command luxel compare \

@@ -1,0 +1,135 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Flamenco job type "luxel-bake" (the Manager names a job type after its script's file name,
+// underscores turned into dashes). It bakes Luxel lightmaps for one or more .blend files: one
+// task per file, since a radiosity solve covers a whole scene and there are no frames to split.
+//
+// Each task runs, on a Worker whose task types include "luxel":
+//   {blender} {blenderArgs} FILE --command luxel bake --density D --threshold T --output DIR
+// DIR is OUTPUT_ROOT/<job's creation time>-<job ID>/<n>-<file's stem>: a folder of its own for
+// every job and every scene. With "save" on, Blender first saves FILE as a copy in DIR and
+// --save then writes that copy: the listed .blend files themselves are only ever read.
+
+const SEPARATOR = ";";
+const TASK_TYPE = "luxel";
+
+const JOB_TYPE = {
+    label: "Luxel Bake",
+    description: "Bake Luxel radiosity lightmaps for one or more .blend files, one task per file",
+    settings: [
+        { key: "blendfiles", type: "string", required: true, eval: "bpy.data.filepath",
+          description: `The .blend files to bake, separated by "${SEPARATOR}", `
+              + "as paths the Workers can open" },
+        { key: "output_root", type: "string", subtype: "dir_path", required: true,
+          description: "Folder for the lightmaps; every job writes into a new subfolder of it" },
+        { key: "density", type: "float", required: true, default: 20.0,
+          propargs: { min: 0.01, soft_max: 1000.0 },
+          description: "Lightmap texels per metre of surface (luxel bake --density)" },
+        { key: "threshold", type: "float", required: true, default: 0.01,
+          propargs: { min: 0.0, max: 0.99, precision: 4 },
+          description: "Stop when this fraction of the emitted power is unshot (--threshold)" },
+        { key: "save", type: "bool", default: false,
+          description: "Also save each .blend with its lightmaps, as a copy in its output folder" },
+        { key: "job_output_dir", type: "string", subtype: "dir_path", visible: "web",
+          description: "Where this job writes: one subfolder per .blend file" },
+    ],
+};
+
+// Run by Blender (--python-expr) before the bake when "save" is on: save the opened file as a
+// copy in the task's --output folder (Blender remaps relative paths to the new place), and fail
+// unless the copy is now the open file, so that --save can only write the copy. The folder is
+// read from Blender's own command line, so no path is ever quoted into Python code (and the code
+// has no braces, which the Manager would take for variables).
+const SAVE_AS_COPY = [
+    "import bpy, os, sys",
+    "argv = sys.argv[sys.argv.index('--command'):]",
+    "folder = os.path.abspath(argv[argv.index('--output') + 1])",
+    "os.makedirs(folder, exist_ok=True)",
+    "copy = os.path.join(folder, os.path.basename(bpy.data.filepath))",
+    "bpy.ops.wm.save_as_mainfile(filepath=copy)",
+    "if not (os.path.isfile(copy) and os.path.samefile(bpy.data.filepath, copy)):",
+    "    raise RuntimeError('the .blend was not saved as ' + copy)",
+].join("\n");
+
+function compileJob(job) {
+    const settings = job.settings;
+    const blendfiles = blendfileList(settings.blendfiles);
+    const outputRoot = requiredFolder(settings, "output_root");
+    const density = requiredNumber(settings, "density", (d) => d > 0,
+                                   "a positive number of texels per metre, e.g. 20");
+    const threshold = requiredNumber(settings, "threshold", (t) => t >= 0 && t < 1,
+                                     "a number in [0, 1), e.g. 0.01");
+    const save = settings.save === undefined ? false : settings.save;
+    if (typeof save !== "boolean") {
+        refuse("save", "must be true or false");
+    }
+
+    // The job ID makes the folder unique to this job, the time makes the folders sort.
+    const jobDir = path.join(outputRoot, `${formatTimestampLocal(job.created)}-${job.jobID}`);
+    settings.job_output_dir = jobDir;
+    print(`Luxel bake: ${blendfiles.length} scene(s) into ${jobDir}`);
+
+    const digits = String(blendfiles.length).length;
+    blendfiles.forEach((blendfile, index) => {
+        const folder = `${String(index + 1).padStart(digits, "0")}-${path.stem(blendfile)}`;
+        const saveFirst = save ? ["--python-exit-code", "1", "--python-expr", SAVE_AS_COPY] : [];
+        const task = author.Task(`bake-${folder}`, TASK_TYPE);
+        task.addCommand(author.Command("blender-render", {
+            exe: "{blender}",
+            exeArgs: "{blenderArgs}",
+            argsBefore: [],
+            blendfile: blendfile,
+            // Blender runs its arguments in order; --command takes all that follow it.
+            args: [...saveFirst, "--command", "luxel", "bake",
+                   "--density", String(density), "--threshold", String(threshold),
+                   "--output", path.join(jobDir, folder), ...(save ? ["--save"] : [])],
+        }));
+        job.addTask(task);
+    });
+}
+
+function refuse(key, problem) {
+    throw new Error(`luxel-bake: the setting "${key}" ${problem}`);
+}
+
+function blendfileList(value) {
+    const files = (typeof value === "string" ? value.split(SEPARATOR) : [])
+        .map((file) => file.trim())
+        .filter((file) => file !== "");
+    if (files.length === 0) {
+        refuse("blendfiles",
+               `is missing: list one or more .blend files separated by "${SEPARATOR}"`);
+    }
+    const seen = new Set();
+    for (const file of files) {
+        if (!/\.blend$/i.test(file) || /\.blend\s*,/i.test(file)) {
+            refuse("blendfiles", `names "${file}", which is not a .blend file `
+                   + `(separate the files with "${SEPARATOR}")`);
+        }
+        const key = file.replaceAll("\\", "/");
+        if (seen.has(key)) {
+            refuse("blendfiles", `names "${file}" twice`);
+        }
+        seen.add(key);
+    }
+    return files;
+}
+
+function requiredFolder(settings, key) {
+    const value = settings[key];
+    if (typeof value !== "string" || value.trim() === "") {
+        refuse(key, "is missing: give a folder the Workers can write to");
+    }
+    return value.trim();
+}
+
+function requiredNumber(settings, key, isValid, expected) {
+    const value = settings[key];
+    if (value === undefined || value === null) {
+        refuse(key, `is missing: give ${expected}`);
+    }
+    if (typeof value !== "number" || !Number.isFinite(value) || !isValid(value)) {
+        refuse(key, `must be ${expected}, not ${JSON.stringify(value)}`);
+    }
+    return value;
+}
