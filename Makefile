@@ -42,6 +42,7 @@ BLENDER_TESTS := $(shell grep -l blender_session tests/test_*.py)
 test: $(VENV)/.dev
 	$(BIN)/python -m pytest -q tests $(addprefix --ignore=,$(BLENDER_TESTS))
 	$(BIN)/python -m pytest -q $(BLENDER_TESTS)
+	$(MAKE) --no-print-directory test-farm
 
 # The Flamenco job type's tests (farm/): Node's own test runner, no packages.
 .PHONY: test-farm
