@@ -13,6 +13,7 @@ from ..native import MAX_SUBDIVISION_LEVEL, LuxelError
 from .bake import BakeJob
 from .compare import compare_with_cycles, summary_lines
 from .properties import PROJECTIONS, SUBDIVISIONS
+from .writeback import remove_lightmaps
 
 EXIT_FAILED = 1
 EXIT_USAGE = 2
@@ -39,6 +40,8 @@ def _parser():
                       help="render the camera view with the baked lighting (Workbench)")
     bake.add_argument("--save", action="store_true",
                       help="save the .blend with the lightmaps (packed, or linked to --output)")
+    remove = commands.add_parser("remove", help="take away everything Luxel's bakes added")
+    remove.add_argument("--save", action="store_true", help="save the .blend afterwards")
     compare = commands.add_parser("compare", help="bake with Luxel and with Cycles; write "
                                   "report.json, report.html and images into DIR")
     _add_bake_options(compare)
@@ -80,13 +83,17 @@ def execute(argv):
         print(f"luxel: {error}", file=sys.stderr)
         return EXIT_USAGE
     try:
-        return _bake(args) if args.command == "bake" else _compare(args)
+        return {"bake": _bake, "remove": _remove, "compare": _compare}[args.command](args)
     except LuxelError as error:
         print(f"luxel: {args.command} failed: {error}", file=sys.stderr)
         return EXIT_FAILED
 
 
 def _check(args):
+    if args.command == "remove":
+        if args.save and not bpy.data.filepath:
+            raise _UsageError("--save needs a .blend file: open one with blender -b FILE.blend")
+        return
     if args.shots is not None and args.shots < 1:
         raise _UsageError("--shots must be 1 or more")
     if args.threshold is not None and not 0.0 <= args.threshold < 1.0:
@@ -162,6 +169,15 @@ def _bake(args):
     if args.preview:
         render_preview(context.scene, os.path.abspath(args.preview))
         print(f"luxel: preview {args.preview}", flush=True)
+    if args.save:
+        bpy.ops.wm.save_mainfile()
+        print(f"luxel: saved {bpy.data.filepath}", flush=True)
+    return 0
+
+
+def _remove(args):
+    remove_lightmaps(bpy.context.scene)
+    print("luxel: removed the lightmaps", flush=True)
     if args.save:
         bpy.ops.wm.save_mainfile()
         print(f"luxel: saved {bpy.data.filepath}", flush=True)

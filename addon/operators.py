@@ -7,6 +7,7 @@ from bpy.props import StringProperty
 from ..native import LuxelError
 from .bake import BakeJob
 from .compare import compare_with_cycles, summary_lines
+from .writeback import remove_lightmaps
 
 TIMER_SECONDS = 0.05
 STEP_SECONDS = 0.1       # GPU work per timer tick: long enough to progress, short for the UI
@@ -151,7 +152,24 @@ class LUXEL_OT_compare(bpy.types.Operator):
         return {'FINISHED'}
 
 
-_register, _unregister = bpy.utils.register_classes_factory((LUXEL_OT_bake, LUXEL_OT_compare))
+class LUXEL_OT_remove_lightmaps(bpy.types.Operator):
+    """Take away everything Luxel's bakes added: images, UV maps, modifiers, helper data and
+    properties; the file is as it was before the first bake"""
+    bl_idname = "luxel.remove_lightmaps"
+    bl_label = "Remove Lightmaps"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return _can_start(cls, context)
+
+    def execute(self, context):
+        remove_lightmaps(context.scene)
+        return {'FINISHED'}
+
+
+_register, _unregister = bpy.utils.register_classes_factory(
+    (LUXEL_OT_bake, LUXEL_OT_compare, LUXEL_OT_remove_lightmaps))
 
 
 def register():

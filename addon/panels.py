@@ -2,6 +2,8 @@
 object's lightmap."""
 import bpy
 
+from .writeback import is_stale
+
 
 class LUXEL_PT_render(bpy.types.Panel):
     bl_label = "Luxel Lightmaps"
@@ -13,7 +15,9 @@ class LUXEL_PT_render(bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         settings = context.scene.luxel
-        layout.operator("luxel.bake", icon='RENDER_STILL')
+        row = layout.row()
+        row.operator("luxel.bake", icon='RENDER_STILL')
+        row.operator("luxel.remove_lightmaps", icon='TRASH')
         column = layout.column()
         column.prop(settings, "texel_density")
         column.prop(settings, "threshold")
@@ -115,7 +119,8 @@ class LUXEL_PT_object(bpy.types.Panel):
 
     @classmethod
     def poll(cls, context):
-        return context.object is not None and context.object.type == 'MESH'
+        return context.object is not None and context.object.type in {
+            'MESH', 'CURVE', 'SURFACE', 'FONT', 'META'}
 
     def draw(self, context):
         layout = self.layout
@@ -130,6 +135,9 @@ class LUXEL_PT_object(bpy.types.Panel):
             column = layout.column(align=True)
             column.label(text=f"Image: {settings.image.name}", icon='IMAGE_DATA')
             column.label(text=f"UV map: {settings.uv_map}", icon='UV')
+            if is_stale(context.object, context.evaluated_depsgraph_get()):
+                column.label(text="Stale: the modifiers changed since the bake; bake again",
+                             icon='ERROR')
 
 
 _register, _unregister = bpy.utils.register_classes_factory(

@@ -157,6 +157,28 @@ def clear_object(obj):
     obj.luxel.image = None
 
 
+def remove_lightmaps(scene):
+    """Take away everything Luxel's bakes added to ``scene`` and the file: the shown nodes, the
+    lightmap images (and their EXR files' links), UV maps, modifiers, snapshots, the node
+    group, offsets, records and stats, so that the file is as before the first bake."""
+    from . import display        # display reads this module's names
+    display.hide_baked_lighting(scene)
+    scene.luxel.show_baked = False
+    for obj in scene.objects:
+        clear_object(obj)
+    for image in [image for image in bpy.data.images if PAGE_KEY in image
+                  and image.name.startswith(image_name(scene, ""))]:
+        bpy.data.images.remove(image)
+    for obj in [obj for obj in bpy.data.objects if obj.name.startswith(SNAPSHOT_PREFIX)
+                and obj.users == 0]:
+        bpy.data.objects.remove(obj)
+    group = bpy.data.node_groups.get(NODE_GROUP)
+    if group is not None and group.users == 0:
+        bpy.data.node_groups.remove(group)
+    scene.luxel.property_unset("stats")
+    scene.luxel.pop("material_emission", None)
+
+
 def is_stale(obj, depsgraph):
     """Whether the object's modifiers no longer make the corners its lightmap was baked for:
     its modifier then shows no lightmap (UVs far outside the page), and the panel says so."""

@@ -256,10 +256,13 @@ def test_hidden_instanced_and_modified_objects_export_as_they_render():
     corners = result.scene.vertices[result.scene.triangles[
         result.scene.object_index == instance_index]]
     np.testing.assert_allclose(corners.reshape(-1, 3).mean(axis=0), (1.2, -1.2, 0.15), atol=1e-6)
+    # The modified object and the instance get lightmaps of what renders, with no warning.
     receivers = {receiver.object_name for receiver in result.receivers}
-    assert receivers == {"room", "block"}
-    assert any("arrayed" in warning and "topology" in warning for warning in result.warnings)
-    assert any("instancer/prop" in warning for warning in result.warnings)
+    assert receivers == {"room", "block", "arrayed", "prop"}
+    sources = {r.object_name: (r.uv_source, r.instancer_name) for r in result.receivers}
+    assert sources["arrayed"] == ('SNAPSHOT', "arrayed")
+    assert sources["prop"][1] == "instancer"
+    assert not any("arrayed" in warning or "prop" in warning for warning in result.warnings)
 
 
 def test_back_faces_receive_on_emitting_sheets_unless_set_otherwise():
@@ -358,7 +361,9 @@ def test_show_baked_lighting_on_then_off_restores_node_trees_exactly():
     scene.luxel.show_baked = True
     output = next(n for n in walls.node_tree.nodes if n.bl_idname == 'ShaderNodeOutputMaterial'
                   and n.is_active_output)
-    shown = output.inputs["Surface"].links[0].from_node
+    either = output.inputs["Surface"].links[0].from_node
+    assert either.bl_idname == 'ShaderNodeMixShader'      # baked, or the material's own
+    shown = either.inputs[2].links[0].from_node
     assert shown.bl_idname == 'ShaderNodeEmission'
     texture = shown.inputs["Color"].links[0].from_node
     assert texture.image == scene.objects["room"].luxel.image

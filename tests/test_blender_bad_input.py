@@ -341,8 +341,8 @@ def test_an_absurd_texel_density_names_the_memory_needed_and_a_density_that_fits
     before = blend_state(scene)
     charted = []
     original = native.solver.build_atlas
-    monkeypatch.setattr(native.solver, "build_atlas", lambda scene, density, *args:
-                        charted.append(density) or original(scene, density, *args))
+    monkeypatch.setattr(native.solver, "build_atlas", lambda scene, density, *args, **kwargs:
+                        charted.append(density) or original(scene, density, *args, **kwargs))
     message = bake_error("GPU memory")
     assert max(charted) < 1e3, "refused before xatlas charts the surface at 10^6 texels/m"
     assert "but 4.0 MiB are allowed" in message and "MiB of GPU memory" in message
@@ -546,7 +546,9 @@ def fill_the_disk_at_file(monkeypatch, number):
 def test_a_disk_filling_up_while_writing_exr_leaves_no_file_and_no_saved_blend(
         monkeypatch, tmp_path, capsys, rebake):
     scene = room_scene()
-    scene.luxel.max_atlas_size = 64         # two pages at 5 texels per metre
+    # Two pages at 5 texels per metre: the block's charts, finer, do not fit beside the room's.
+    scene.luxel.max_atlas_size = 64
+    scene.objects["block"].luxel.resolution_scale = 3.0
     blend = tmp_path / "room.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
     maps = tmp_path / "maps"

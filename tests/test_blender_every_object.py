@@ -188,3 +188,46 @@ def test_a_changed_stack_makes_the_lightmap_stale_not_garbage():
     assert writeback.is_stale(sofa, depsgraph)
     # Off every page: the lightmap node (extension CLIP) shows black there.
     assert (evaluated_lightmap(sofa) < -1.0).all()
+
+
+def test_remove_lightmaps_leaves_the_file_as_before_the_first_bake():
+    """Attribute by attribute: meshes (positions, corners, every UV map and attribute),
+    modifier stacks, node trees, custom properties, and the datablocks of the file."""
+    modelled_room()
+    def state():
+        meshes = {m.name: (mesh_state_of_mesh(m)) for m in bpy.data.meshes}
+        objects = {o.name: ([(m.name, m.type) for m in o.modifiers], sorted(o.keys()))
+                   for o in bpy.data.objects}
+        trees = {m.name: sorted((n.name, n.bl_idname) for n in m.node_tree.nodes)
+                 for m in bpy.data.materials if m.node_tree}
+        blocks = {kind: sorted(i.name for i in getattr(bpy.data, kind))
+                  for kind in ("objects", "meshes", "images", "node_groups", "materials")}
+        return meshes, objects, trees, blocks
+    before = state()
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    bpy.context.scene.luxel.show_baked = True
+    assert state() != before
+    assert bpy.ops.luxel.remove_lightmaps() == {'FINISHED'}
+    after = state()
+    assert after[1] == before[1] and after[2] == before[2] and after[3] == before[3]
+    assert after[0].keys() == before[0].keys()
+    for name, (attributes, layers) in before[0].items():
+        assert sorted(attributes) == sorted(after[0][name][0]), name
+        assert layers.keys() == after[0][name][1].keys(), name
+        for key in layers:
+            np.testing.assert_array_equal(layers[key], after[0][name][1][key])
+
+
+def mesh_state_of_mesh(mesh):
+    """A mesh's attribute names and the values of each (positions, corners, UV maps)."""
+    values = {}
+    for attribute in mesh.attributes:
+        if attribute.name.startswith(".") or attribute.data_type not in {
+                'FLOAT', 'FLOAT2', 'FLOAT_VECTOR', 'INT'}:
+            continue
+        width = {'FLOAT': 1, 'INT': 1, 'FLOAT2': 2, 'FLOAT_VECTOR': 3}[attribute.data_type]
+        field = {'FLOAT2': "vector", 'FLOAT_VECTOR': "vector"}.get(attribute.data_type, "value")
+        array = np.empty(len(attribute.data) * width)
+        attribute.data.foreach_get(field, array)
+        values[attribute.name] = array
+    return [a.name for a in mesh.attributes], values
