@@ -100,7 +100,6 @@ MATRIX ?= 4.2 4.5 5.0 5.2
 # Python 3.13: python3.13 where it runs, else the newest 3.13 that pyenv has.
 PYTHON313 ?= $(shell python3.13 -c '' 2>/dev/null && echo python3.13 || echo "$$(pyenv root \
 	2>/dev/null)/versions/$$(pyenv versions --bare 2>/dev/null | grep '^3\.13' | tail -1)/bin/python3")
-PYTHON_FOR_5.2 = $(PYTHON313)
 
 test-matrix: $(addprefix test-matrix-,$(MATRIX))
 
@@ -113,7 +112,7 @@ test-matrix-%: extension .venv-bpy-%/.installed
 .PRECIOUS: .venv-bpy-%/.installed  # kept, though only a pattern rule names it
 .venv-bpy-%/.installed: requirements-bpy-%.txt
 	rm -rf .venv-bpy-$*
-	$(or $(PYTHON_FOR_$*),$(PYTHON)) -m venv .venv-bpy-$*
+	$(if $(filter 4.% 5.0,$*),$(PYTHON),$(PYTHON313)) -m venv .venv-bpy-$*
 	.venv-bpy-$*/bin/python -m pip install --quiet -r $<
 	touch $@
 
