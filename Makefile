@@ -2,13 +2,14 @@
 #   make bake   installs Luxel and Blender (the bpy module) into .venv, and bakes
 #               sample_blends/cornell_box.blend through the extension in background mode
 #   make test   installs the same plus pytest into .venv and runs the tests
+#   make test-matrix  installs the extension zip into Blender 4.2, 4.5, 5.0 and 5.2 and bakes
 PYTHON ?= python3.11
 DEVICE ?= llvmpipe
 VENV := .venv
 BIN := $(VENV)/bin
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 
-.PHONY: bake test compare bench bench-equal-error bench-projections extension extension-check samples clean
+.PHONY: bake test test-matrix compare bench bench-equal-error bench-projections extension extension-check samples clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -97,9 +98,33 @@ extension: | $(BIN)/python
 extension-check: extension $(VENV)/.blender
 	$(BIN)/python tools/check_extension_install.py dist/luxel-$(VERSION).zip
 
+# The zip in a fresh profile of each Blender line in the manifest's range (the latest bpy of
+# each): strict validation, install, the Cornell box baked within 5 % of that Blender's Cycles.
+# 5.0 runs in .venv (bpy from requirements-blender.txt); the others in .venv-bpy-<line>/, from
+# requirements-bpy-<line>.txt, on Python 3.11 or, for 5.1 and later, 3.13 (PYTHON313).
+MATRIX ?= 4.2 4.5 5.0 5.2
+# Python 3.13: python3.13 where it runs, else the newest 3.13 that pyenv has.
+PYTHON313 ?= $(shell python3.13 -c '' 2>/dev/null && echo python3.13 || echo "$$(pyenv root \
+	2>/dev/null)/versions/$$(pyenv versions --bare 2>/dev/null | grep '^3\.13' | tail -1)/bin/python3")
+
+test-matrix: $(addprefix test-matrix-,$(MATRIX))
+
+test-matrix-5.0: extension $(VENV)/.blender
+	$(BIN)/python tools/check_extension_install.py --cornell-box dist/luxel-$(VERSION).zip
+
+test-matrix-%: extension .venv-bpy-%/.installed
+	.venv-bpy-$*/bin/python tools/check_extension_install.py --cornell-box dist/luxel-$(VERSION).zip
+
+.PRECIOUS: .venv-bpy-%/.installed  # kept, though only a pattern rule names it
+.venv-bpy-%/.installed: requirements-bpy-%.txt
+	rm -rf .venv-bpy-$*
+	$(if $(filter 4.% 5.0,$*),$(PYTHON),$(PYTHON313)) -m venv .venv-bpy-$*
+	.venv-bpy-$*/bin/python -m pip install --quiet -r $<
+	touch $@
+
 # Regenerates the scenes in sample_blends/.
 samples: $(VENV)/.blender
 	$(BIN)/python sample_blends/generate.py
 
 clean:
-	rm -rf $(VENV) out dist
+	rm -rf $(VENV) .venv-bpy-* out dist

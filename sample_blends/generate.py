@@ -189,6 +189,8 @@ def new_scene():
     scene.render.resolution_percentage = 100
     # A new world lights the scene grey by default; the baker expects darkness.
     scene.world = bpy.data.worlds.new("world")
+    if scene.world.node_tree is None:  # Blender before 5.0 makes it on use_nodes
+        scene.world.use_nodes = True
     background = scene.world.node_tree.nodes["Background"]
     background.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
     background.inputs["Strength"].default_value = 1.0
@@ -197,6 +199,8 @@ def new_scene():
 
 def diffuse(name, rgb):
     mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:  # Blender before 5.0 makes it on use_nodes
+        mat.use_nodes = True
     mat.diffuse_color = (*rgb, 1.0)  # viewport colour
     bsdf = mat.node_tree.nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = (*rgb, 1.0)

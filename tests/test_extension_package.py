@@ -16,6 +16,7 @@ ROOT = Path(__file__).resolve().parent.parent
 BUNDLED = ("moderngl", "glcontext", "xatlas", "OpenEXR", "flip_evaluator")
 PLATFORM_TAGS = {"linux-x64": "manylinux", "windows-x64": "win_amd64",
                  "macos-arm64": "macosx_11_0_arm64"}
+PYTHON_TAGS = ("cp311", "cp313")  # Blender 4.2 to 5.0; 5.1 and 5.2
 
 
 def run(*arguments):
@@ -37,10 +38,12 @@ def test_built_zip_installs_with_its_wheels_and_bakes(tmp_path):
     assert not [name for name in names
                 if name.split("/")[0] in ("tests", "sample_blends", "bench", "tools")]
     assert set(manifest["platforms"]) == set(PLATFORM_TAGS)
+    assert len(manifest["wheels"]) == len(PLATFORM_TAGS) * len(PYTHON_TAGS) * len(BUNDLED)
     for platform, tag in PLATFORM_TAGS.items():
-        wheels = [path for path in manifest["wheels"] if tag in path]
-        assert sorted(re.match(r"\./wheels/([^-]+)-", path)[1] for path in wheels) == sorted(
-            name.lower() for name in BUNDLED), platform
+        for python in PYTHON_TAGS:
+            wheels = [path for path in manifest["wheels"] if tag in path and f"-{python}-" in path]
+            assert sorted(re.match(r"\./wheels/([^-]+)-", path)[1] for path in wheels) == sorted(
+                name.lower() for name in BUNDLED), (platform, python)
 
     output = run(ROOT / "tools" / "check_extension_install.py", target)
     if any(importlib.util.find_spec(name) for name in BUNDLED):  # the venv's copies are hidden

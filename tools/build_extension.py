@@ -13,10 +13,12 @@ import zipfile
 
 ROOT = Path(__file__).resolve().parent.parent
 MANIFEST = "blender_manifest.toml"
-PYTHON_VERSION = "3.11"  # Blender 4.2 to 5.0 bundle CPython 3.11
+PYTHON_VERSIONS = ("3.11", "3.13")  # Blender 4.2 to 5.0 bundle CPython 3.11, 5.1 and 5.2 3.13
 PROVIDED_BY_BLENDER = {"numpy"}  # Blender's own numpy; a second copy would shadow it
 # Blender platform -> pip platform tags. Blender's Linux builds need glibc 2.28, so any older
 # manylinux wheel fits; pip widens macosx_11_0_arm64 to older macOS and universal2 itself.
+# No macos-x64: Blender 4.5 was the last for Intel Macs, and moderngl 5.13.0, glcontext 3.1.0
+# and flip-evaluator 1.7 publish no x86_64 macOS wheels (their last: 5.12.0, 3.0.0, 1.6.0.1).
 PLATFORMS = {
     "linux-x64": [f"manylinux_2_{minor}_x86_64" for minor in range(28, 4, -1)]
                  + ["manylinux2014_x86_64", "manylinux2010_x86_64", "manylinux1_x86_64"],
@@ -40,36 +42,43 @@ def read_pins(requirements):
     return pins
 
 
-def cached_wheel(folder, name, version):
-    """The wheel of name==version in folder, or None. Wheel names are normalized to lower case
-    with underscores (OpenEXR -> openexr)."""
-    prefix = f"{re.sub(r'[-_.]+', '_', name).lower()}-{version}-"
+def cached_wheel(folder, name, version, python):
+    """The wheel of name==version for CPython python ("3.11") in folder, or None. Wheel names
+    are normalized to lower case with underscores (OpenEXR -> openexr)."""
+    prefix = f"{re.sub(r'[-_.]+', '_', name).lower()}-{version}-{cpython(python)}-"
     matches = sorted(path for path in folder.glob("*.whl") if path.name.lower().startswith(prefix))
     return matches[0] if matches else None
 
 
+def cpython(python):
+    return "cp" + python.replace(".", "")
+
+
 def fetch_wheels(cache, pins):
-    """One wheel per pin and platform, downloaded into cache/<platform>/ unless already there."""
+    """One wheel per pin, platform and Python version, downloaded into cache/<platform>/ unless
+    already there."""
     wheels = {}
     for platform, tags in PLATFORMS.items():
         folder = cache / platform
-        missing = [f"{name}=={version}" for name, version in pins
-                   if cached_wheel(folder, name, version) is None]
-        if missing:
-            download(folder, platform, tags, missing)
         wheels[platform] = []
-        for name, version in pins:
-            wheel = cached_wheel(folder, name, version)
-            if wheel is None:
-                sys.exit(f"no wheel of {name}=={version} for {platform} in {folder}")
-            wheels[platform].append(wheel)
+        for python in PYTHON_VERSIONS:
+            missing = [f"{name}=={version}" for name, version in pins
+                       if cached_wheel(folder, name, version, python) is None]
+            if missing:
+                download(folder, platform, tags, python, missing)
+            for name, version in pins:
+                wheel = cached_wheel(folder, name, version, python)
+                if wheel is None:
+                    sys.exit(f"no CPython {python} wheel of {name}=={version} for {platform} "
+                             f"in {folder}")
+                wheels[platform].append(wheel)
     return wheels
 
 
-def download(folder, platform, tags, requirements):
+def download(folder, platform, tags, python, requirements):
     command = [sys.executable, "-m", "pip", "download", "--quiet", "--dest", str(folder),
-               "--only-binary=:all:", "--no-deps", "--python-version", PYTHON_VERSION,
-               "--implementation", "cp", "--abi", "cp" + PYTHON_VERSION.replace(".", "")]
+               "--only-binary=:all:", "--no-deps", "--python-version", python,
+               "--implementation", "cp", "--abi", cpython(python)]
     for tag in tags:
         command += ["--platform", tag]
     result = subprocess.run(command + requirements, capture_output=True, text=True)
@@ -77,7 +86,7 @@ def download(folder, platform, tags, requirements):
         # pip's last ERROR line names the requirement it could not satisfy.
         errors = [line for line in result.stderr.splitlines() if line.startswith("ERROR")]
         reason = errors[-1] if errors else result.stderr.strip()
-        sys.exit(f"pip found no CPython {PYTHON_VERSION} wheel for {platform} "
+        sys.exit(f"pip found no CPython {python} wheel for {platform} "
                  f"(tags {tags[0]}...): {reason}")
 
 
