@@ -2,7 +2,7 @@
 #   make bake   installs Luxel and Blender (the bpy module) into .venv, and bakes
 #               sample_blends/cornell_box.blend through the extension in background mode
 #   make test   installs the same plus pytest into .venv and runs the tests
-#   make test-matrix  installs the extension zip into Blender 4.2, 4.5, 5.0 and 5.2 and bakes
+#   make test-matrix  installs the extension zip into Blender 4.2, 4.5, 5.0, 5.2 and 5.3 and bakes
 PYTHON ?= python3.11
 DEVICE ?= llvmpipe
 VENV := .venv
@@ -43,6 +43,7 @@ BLENDER_TESTS := $(shell grep -l blender_session tests/test_*.py)
 test: $(VENV)/.dev
 	$(BIN)/python -m pytest -q tests $(addprefix --ignore=,$(BLENDER_TESTS))
 	$(BIN)/python -m pytest -q $(BLENDER_TESTS)
+	$(MAKE) --no-print-directory test-matrix MATRIX="4.2 4.5 5.2 5.3"
 	$(MAKE) --no-print-directory test-farm
 
 # The Flamenco job type's tests (farm/): Node's own test runner, no packages.
@@ -102,7 +103,7 @@ extension-check: extension $(VENV)/.blender
 # each): strict validation, install, the Cornell box baked within 5 % of that Blender's Cycles.
 # 5.0 runs in .venv (bpy from requirements-blender.txt); the others in .venv-bpy-<line>/, from
 # requirements-bpy-<line>.txt, on Python 3.11 or, for 5.1 and later, 3.13 (PYTHON313).
-MATRIX ?= 4.2 4.5 5.0 5.2
+MATRIX ?= 4.2 4.5 5.0 5.2 5.3
 # Python 3.13: python3.13 where it runs, else the newest 3.13 that pyenv has.
 PYTHON313 ?= $(shell python3.13 -c '' 2>/dev/null && echo python3.13 || echo "$$(pyenv root \
 	2>/dev/null)/versions/$$(pyenv versions --bare 2>/dev/null | grep '^3\.13' | tail -1)/bin/python3")
