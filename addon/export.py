@@ -8,9 +8,10 @@ import bpy
 import numpy as np
 
 from ..native import PointLight, Scene, SceneError, SpotLight, SunLight
-from ..native.scene import triangle_areas
+from ..native.atlas import overlapping_faces
+from ..native.scene import UV_TOLERANCE, triangle_areas
 from . import display
-from .writeback import MODIFIER
+from .writeback import MODIFIER, UV_MAP
 
 MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (native checks < 1)
 DISK_SEGMENTS = 32
@@ -61,6 +62,7 @@ class _Collector:
         self.receive_back = []
         self.polygon, self.polygon_count = [], 0
         self.albedo_uv, self.texture_index = [], []
+        self.lightmap_uv = []
         self.object_names, self.texel_scale = [], []
         self.layout, self.slot, self.block = [], [], []
         self.vertex_count = 0
@@ -78,8 +80,11 @@ class _Collector:
         return index
 
     def add(self, vertices, normals, triangles, obj, albedo, emission, two_sided, receive,
-            occlude, albedo_uv, texture_index, receive_back=False, polygon=None):
+            occlude, albedo_uv, texture_index, receive_back=False, polygon=None,
+            lightmap_uv=None):
         count = len(triangles)
+        self.lightmap_uv.append(np.full((count, 3, 2), np.nan) if lightmap_uv is None
+                                else lightmap_uv)
         self.vertices.append(vertices)
         self.normals.append(normals)
         self.triangles.append(triangles + self.vertex_count)
@@ -200,7 +205,8 @@ class _Exporter:
             "object", original.name)
         # A mirrored copy winds its triangles the other way: its corners do not match.
         mirrored = bool(np.linalg.det(np.array(obj.matrix_world)[:3, :3]) < 0)
-        layout = shared + (settings.resolution_scale, receive_back, mirrored)
+        source = ("uv", settings.source_uv_map) if settings.uv_source == 'MAP' else ("charts",)
+        layout = shared + source + (settings.resolution_scale, receive_back, mirrored)
         slot, block = ("slot", original.name), ("block", instancer.name)
         shows = settings.receive
         if original.type == 'META':
@@ -288,6 +294,10 @@ class _Exporter:
 
         receive_back = back_faces == 'ON' or (back_faces == 'AUTO' and emission.max() > 0.0
                                               and _is_open(loop_vertex[loops]))
+        lightmap_uv = None
+        if original.luxel.uv_source == 'MAP':
+            lightmap_uv = self._own_lightmap_uv(mesh, original.luxel.source_uv_map, name,
+                                                loops, polygon)
         layout, slot, block, uv_source, shows = self._placement(obj, mesh, name, instancer,
                                                                 receive_back)
         object_index = self.collector.add_object(name, texel_scale, layout, slot, block)
@@ -295,11 +305,37 @@ class _Exporter:
         # asks for one show a lightmap.
         first = self.collector.add(vertices, normals, triangles, object_index, albedo, emission,
                                    True, True, True, albedo_uv, texture_index, receive_back,
-                                   polygon)
+                                   polygon, lightmap_uv)
         if shows:
             self.receivers.append(Receiver(original.name, instancer.name, object_index,
                                            self.collector.layout[object_index], first, loops,
                                            len(mesh.loops), uv_source))
+
+    def _own_lightmap_uv(self, mesh, uv_map, name, loops, polygon):
+        """The corners (T, 3, 2) of the object's own lightmap UV map, refused (before anything
+        changes) where the map is missing, leaves [0, 1] or has faces that overlap."""
+        fix = "or set UV Source to Luxel's Charts (Object > Luxel Lightmap)"
+        if not uv_map or uv_map == UV_MAP:
+            problem = "none is chosen" if not uv_map else "the one chosen is Luxel's own"
+            raise SceneError(f"object '{name}': UV Source is a UV map but {problem}: choose "
+                             f"one of the mesh's, {fix}", name)
+        layer = mesh.uv_layers.get(uv_map)
+        if layer is None:
+            raise SceneError(f"object '{name}' has no UV map '{uv_map}' (after its modifiers): "
+                             f"choose one it has, {fix}", name)
+        corners = _array(layer.uv, "vector", np.float64, (-1, 2))[loops]
+        outside = ((corners < -UV_TOLERANCE) | (corners > 1.0 + UV_TOLERANCE)).any(axis=(1, 2))
+        if outside.any():
+            raise SceneError(f"object '{name}': UV map '{uv_map}' has {_faces(polygon[outside])} "
+                             "outside the [0, 1] square: scale the islands into it (UV > Pack "
+                             f"Islands), {fix}", name)
+        overlapping = overlapping_faces(corners, polygon)
+        if overlapping.any():
+            raise SceneError(f"object '{name}': UV map '{uv_map}' has "
+                             f"{_faces(polygon[overlapping])} overlapping others, and a lightmap "
+                             "needs texels of its own for each face: unwrap into a new map (UV > Lightmap "
+                             f"Pack, or Smart UV Project and Pack Islands), {fix}", name)
+        return corners
 
     def _usable_triangles(self, corners, name):
         """Triangles the solver accepts: finite corners and an area above native.Scene's
@@ -529,6 +565,8 @@ class _Exporter:
             object_texel_scale=c.texel_scale, object_layout=layout,
             object_slot=numbered(c.slot), object_block=numbered(c.block),
             albedo_uv=np.concatenate(c.albedo_uv),
+            lightmap_uv=(np.concatenate(c.lightmap_uv) if any(
+                np.isfinite(uv).any() for uv in c.lightmap_uv) else None),
             albedo_texture_index=np.concatenate(c.texture_index),
             albedo_textures=self.textures, lights=self.lights, sky=self.sky())
         return Export(scene, self.receivers, self.warnings, self.emission_of_material)
@@ -540,6 +578,11 @@ def _array(collection, attribute, dtype, shape):
     flat = np.empty(len(collection) * width, dtype=dtype)
     collection.foreach_get(attribute, flat)
     return flat.reshape(shape)
+
+
+def _faces(polygon):
+    count = len(np.unique(polygon))
+    return f"{count} face{'' if count == 1 else 's'}"
 
 
 def _active_output(tree, idname):

@@ -129,6 +129,12 @@ class LUXEL_PT_object(bpy.types.Panel):
         layout.prop(settings, "receive")
         column = layout.column()
         column.active = settings.receive
+        column.prop(settings, "uv_source")
+        if settings.uv_source == 'MAP':
+            if context.object.type == 'MESH':
+                column.prop_search(settings, "source_uv_map", context.object.data, "uv_layers")
+            else:
+                column.prop(settings, "source_uv_map")
         column.prop(settings, "resolution_scale")
         column.prop(settings, "back_faces")
         if settings.image is not None:

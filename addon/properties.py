@@ -161,6 +161,16 @@ class LuxelObjectSettings(bpy.types.PropertyGroup):
              "as Blender's two-sided surfaces do (they are not shown in the viewport)"),
             ('OFF', "Off", "Only the front faces receive light")],
         description="Whether light reaching this object's back faces is reflected")
+    uv_source: EnumProperty(
+        name="UV Source", default='LUXEL', items=[
+            ('LUXEL', "Luxel's Charts", "Luxel unwraps the evaluated surface into charts of "
+             "its own at the texel density"),
+            ('MAP', "UV Map", "A lightmap UV map of this mesh's, packed as it is: its faces "
+             "must not overlap and must lie inside [0, 1]")],
+        description="Where the lightmap's UVs come from")
+    source_uv_map: StringProperty(name="UV Map",
+                                  description="The mesh's own lightmap UV map, with UV "
+                                  "Source set to UV Map")
     resolution_scale: FloatProperty(name="Resolution Scale", default=1.0, min=0.01,
                                     soft_max=16.0,
                                     description="Multiplies the scene's texel density here")

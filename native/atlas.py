@@ -40,6 +40,9 @@ class Atlas:
 CACHED_ATLASES = 4
 # tight_packing keeps the atlas's layout unless its pages would shrink to this share or less.
 TIGHT_PACKING_GAIN = 0.75
+OVERLAP_RESOLUTION = 1024   # grid overlapping_faces tests a UV map's [0, 1] square on
+OVERLAP_MARGIN = 1e-3       # of a cell: closer to a triangle's edge is on the edge
+OVERLAP_BATCH = 1 << 22     # grid centres overlapping_faces tests at once (memory)
 SNAP_TEXELS = 1e-3       # a UV corner this close to a texel edge lies on it
 MIN_XATLAS_AREA = 1e-3   # smallest triangle area handed to xatlas, in its units
 MAX_XATLAS_EXTENT = 1e6  # largest scene size handed to xatlas, in its units
@@ -111,8 +114,10 @@ def _build(scene, chosen, density, max_size, padding, align):
                     f"objects '{scene.object_names[obj]}' and "
                     f"'{scene.object_names[largest]}' share a layout but chart "
                     f"{len(of_object[obj])} and {len(of_object[largest])} triangles")
-        layouts[layout] = _chart_layout(scene, of_object[largest], units, density,
-                                        max_size - align, padding)
+        given = scene.lightmap_uv is not None and np.isfinite(
+            scene.lightmap_uv[of_object[largest]]).all()
+        layouts[layout] = (_given_layout if given else _chart_layout)(
+            scene, of_object[largest], units, density, max_size - align, padding)
 
     placed = [obj for obj in of_object if layouts[int(scene.object_layout[obj])].size.min() > 0]
     sizes = {obj: -(-(layouts[int(scene.object_layout[obj])].size + padding) // align) * align
@@ -206,6 +211,39 @@ def _chart_layout(scene, members, units, density, max_size, padding):
         width = height = 0
     return _Layout(texels, chart, packed, np.array([width, height], dtype=np.int64),
                    chart_count, texels_per_unit < float(density) / units)
+
+
+def _given_layout(scene, members, units, density, max_size, padding):
+    """One object's own lightmap UVs (Scene.lightmap_uv) as they are: the box around them
+    scaled to the texel density on average (surface area over UV area, times the object's
+    texel scale), back faces in a second box beside the first. Shrinks to fit one page."""
+    name = scene.object_name(members[0])
+    uv = scene.lightmap_uv[members]
+    back = (np.zeros(len(members), bool) if scene.back_of is None
+            else scene.back_of[members] >= 0)
+    front = uv[~back]
+    uv_area = 0.5 * np.abs(np.cross(front[:, 1] - front[:, 0], front[:, 2] - front[:, 0])).sum()
+    if uv_area <= 0.0:
+        raise SettingsError(f"object '{name}': its lightmap UV map has no area (every face "
+                            "collapsed to a line or a point): unwrap it, or let Luxel chart it")
+    texel_scale = float(scene.object_texel_scale[int(scene.object_index[members[0]])])
+    per_uv = density * texel_scale * math.sqrt(scene.triangle_area[members[~back]].sum()
+                                               / uv_area)
+    low, high = front.reshape(-1, 2).min(axis=0), front.reshape(-1, 2).max(axis=0)
+    span = np.maximum(high - low, 1e-12)
+    boxes = 2 if back.any() else 1
+    # Texels per UV unit at which the boxes fit one page, their padding (and the texel
+    # each box's size rounds up by) included.
+    fits = float(max_size - (padding + 1) * boxes) / max(span[0] * boxes, span[1])
+    shrunk = per_uv > fits
+    per_uv = min(per_uv, fits)
+    box = np.ceil(span * per_uv - SNAP_TEXELS).astype(np.int64)
+    texels = (uv - low) * per_uv
+    texels[back] += [box[0] + padding, 0]
+    size = np.array([box[0] * boxes + padding * (boxes - 1), box[1]], dtype=np.int64)
+    texels = np.clip(texels, 0.0, size)
+    return _Layout(texels, back.astype(np.int64), np.ones(len(members), bool), size,
+                   boxes, bool(shrunk))
 
 
 def _slot_offsets(scene, placed, sizes, max_size):
@@ -372,6 +410,51 @@ class TexelMap:
     boxes: np.ndarray       # (charts, 4) x0, y0, x1, y1 of each chart on its tight page
 
 
+def overlapping_faces(uv, face, resolution=OVERLAP_RESOLUTION):
+    """Which triangles of a UV map (T, 3, 2) share area with another face's (``face`` (T,):
+    the face each triangle belongs to): (T,) bool. Tested at the centres of a
+    ``resolution``-square grid; a centre counts only inside a triangle by more than
+    OVERLAP_MARGIN of a cell, so faces that meet along an edge do not overlap."""
+    uv = np.asarray(uv, dtype=np.float64)
+    face = np.asarray(face, dtype=np.int64)
+    points = uv * resolution - 0.5      # cell centres at whole numbers
+    low = np.ceil(points.min(axis=1)).astype(np.int64)
+    high = np.floor(points.max(axis=1)).astype(np.int64)
+    extent = np.maximum(high - low + 1, 0)
+    counts = extent.prod(axis=1)
+    edges = np.roll(points, -1, axis=1) - points          # edge i from corner i to i + 1
+    doubled_area = np.cross(edges[:, 0], -edges[:, 2])
+    orientation = np.sign(doubled_area)
+    lengths = np.maximum(np.linalg.norm(edges, axis=2), 1e-30)
+    covered = []
+    total = np.cumsum(counts)
+    start = 0
+    while start < len(uv):      # triangles in runs of about OVERLAP_BATCH tested centres
+        end = max(start + 1, int(np.searchsorted(total, total[start] - counts[start]
+                                                 + OVERLAP_BATCH, side="right")))
+        chosen = np.arange(start, min(end, len(uv)))
+        start = end
+        chosen = chosen[(counts[chosen] > 0) & (orientation[chosen] != 0)]
+        owner = np.repeat(chosen, counts[chosen])
+        local = np.arange(len(owner)) - np.repeat(np.cumsum(counts[chosen]) - counts[chosen],
+                                                  counts[chosen])
+        width = extent[owner, 0]
+        centre = np.stack([low[owner, 0] + local % width, low[owner, 1] + local // width], 1)
+        inside = np.ones(len(owner), bool)
+        for corner in range(3):
+            signed = np.cross(edges[owner, corner], centre - points[owner, corner])
+            inside &= signed * orientation[owner] / lengths[owner, corner] > OVERLAP_MARGIN
+        centre = centre[inside]
+        covered.append(np.stack([centre[:, 1] * resolution + centre[:, 0],
+                                 face[owner[inside]]], axis=1))
+    if not covered:
+        return np.zeros(len(uv), bool)
+    pairs = np.unique(np.concatenate(covered), axis=0)
+    _, faces_in_cell = np.unique(pairs[:, 0], return_counts=True)
+    shared = np.repeat(faces_in_cell > 1, faces_in_cell)
+    return np.isin(face, pairs[shared, 1])
+
+
 def tight_packing(atlas, align=1):
     """The atlas with its charts moved by whole texels so that their bounding boxes all but
     abut (one empty texel between), page by page: every triangle covers the same texels,
@@ -451,12 +534,13 @@ def _destroy_settled_atlases():
 
 
 def _cache_key(scene, chosen, density, max_size, padding):
-    """Everything the atlas depends on: the charted triangles' corners, their objects and the
-    objects' texel scales, and the packing settings."""
+    """Everything the atlas depends on: the charted triangles' corners and given lightmap
+    UVs, their objects and the objects' texel scales and layouts, and the packing settings."""
     digest = hashlib.blake2b(digest_size=20)
+    lightmap_uv = np.zeros(0) if scene.lightmap_uv is None else scene.lightmap_uv[chosen]
     for array in (scene.vertices[scene.triangles[chosen]], scene.object_index[chosen],
                   np.asarray(scene.object_texel_scale, dtype=np.float64), chosen,
-                  scene.object_layout, scene.object_slot, scene.object_block):
+                  scene.object_layout, scene.object_slot, scene.object_block, lightmap_uv):
         array = np.ascontiguousarray(array)
         digest.update(str((array.dtype, array.shape)).encode())
         digest.update(array.tobytes())

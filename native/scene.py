@@ -7,6 +7,8 @@ import numpy as np
 
 from .errors import SceneError
 
+UV_TOLERANCE = 1e-6     # a lightmap UV this far outside [0, 1] is still inside
+
 
 def triangle_areas(corners):
     """Areas of (T, 3, 3) corner triangles and which are degenerate (zero area): at most 1e-7
@@ -101,6 +103,10 @@ class Scene:
     shown by itself, or the objects one collection instance shows) is placed whole on one
     page, and a slot (an object instanced in several blocks) sits at the same offset within
     each block it is in, so that one offset per slot and one per block place every copy.
+    lightmap_uv (T, 3, 2), optional: an object's own lightmap UVs in [0, 1], packed as they
+    are (one scale and offset per object, see atlas.overlapping_faces for the check the
+    add-on makes first); NaN where Luxel charts. An object has them on all its triangles or
+    on none.
     albedo_texture_index (T,) into albedo_textures ((H, W, 3 or 4) linear float arrays, row 0
     at v = 0) sampled through albedo_uv (T, 3, 2); -1 for none. The texture is multiplied by
     the triangle's albedo.
@@ -126,6 +132,7 @@ class Scene:
     object_layout: np.ndarray = None
     object_slot: np.ndarray = None
     object_block: np.ndarray = None
+    lightmap_uv: np.ndarray = None
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -161,6 +168,8 @@ class Scene:
         self.albedo_texture_index = per_triangle(self.albedo_texture_index, -1, np.int64)
         if self.albedo_uv is not None:
             self.albedo_uv = np.ascontiguousarray(self.albedo_uv, dtype=np.float64)
+        if self.lightmap_uv is not None:
+            self.lightmap_uv = np.ascontiguousarray(self.lightmap_uv, dtype=np.float64)
         if self.object_texel_scale is None:
             self.object_texel_scale = [1.0] * len(self.object_names)
         objects = len(self.object_names)
@@ -234,6 +243,9 @@ class Scene:
             raise SceneError("a block holds each object_slot once: give the second copy a "
                              "slot of its own")
 
+        if self.lightmap_uv is not None:
+            self._validate_lightmap_uv()
+
         textured = self.albedo_texture_index >= 0
         if textured.any():
             if self.albedo_uv is None or self.albedo_uv.shape != (len(self.triangles), 3, 2):
@@ -258,6 +270,27 @@ class Scene:
         if self.emitted_power().sum() <= 0.0 and sun_power <= 0.0 and self.sky.sum() <= 0.0:
             raise SceneError("the scene has no light: add a light with positive power or a "
                              "material with emission colour and strength above 0")
+
+    def _validate_lightmap_uv(self):
+        uv = self.lightmap_uv
+        if uv.shape != (len(self.triangles), 3, 2):
+            raise SceneError(f"lightmap_uv must have shape (T, 3, 2), got {uv.shape}")
+        given = np.isfinite(uv).all(axis=(1, 2))
+        mixed = np.isfinite(uv).any(axis=(1, 2)) & ~given
+        if mixed.any():
+            self._fail("lightmap_uv is partly NaN; give all three corners or none",
+                       int(np.argmax(mixed)))
+        objects = len(self.object_names)
+        with_uv = np.bincount(self.object_index, weights=given, minlength=objects)
+        total = np.bincount(self.object_index, minlength=objects)
+        partly = np.nonzero((with_uv > 0) & (with_uv < total))[0]
+        if len(partly):
+            raise SceneError(f"object '{self.object_names[partly[0]]}' has lightmap_uv on some "
+                             "of its triangles only; give them on all or none",
+                             self.object_names[partly[0]])
+        outside = given & ((uv < -UV_TOLERANCE) | (uv > 1.0 + UV_TOLERANCE)).any(axis=(1, 2))
+        if outside.any():
+            self._fail("lightmap_uv lies outside [0, 1]", int(np.argmax(outside)))
 
     def _validate_light(self, light):
         label = f"light '{light.name}'"
@@ -324,6 +357,8 @@ class Scene:
             object_block=self.object_block,
             albedo_uv=None if self.albedo_uv is None else extend(self.albedo_uv,
                                                                 self.albedo_uv[backs][:, ::-1]),
+            lightmap_uv=None if self.lightmap_uv is None else extend(
+                self.lightmap_uv, self.lightmap_uv[backs][:, ::-1]),
             albedo_texture_index=extend(self.albedo_texture_index,
                                         self.albedo_texture_index[backs]),
             albedo_textures=self.albedo_textures, lights=self.lights,
