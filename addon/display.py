@@ -3,7 +3,8 @@
 On: each material of a baked object gets a few nodes of Luxel's feeding a Material Output of
 Luxel's that becomes the active one: the lightmap UV map plus the object's and its instancer's
 offsets (Attribute nodes, Object and Instancer: writeback's luxel_object and luxel_instancer)
-read the page that the instancer's offset names, shown as emission, plus the material's own
+read the page that the instancer's offset names (back faces whose light was solved through
+their own UV map), shown as emission, plus the material's own
 emission; on an object the bake did not reach (no luxel_object) the material shows its own
 shader. The first page's node becomes the active node, which Workbench's Texture colour shows
 through the active UV map, so the lightmap UV map becomes the active one of each baked mesh.
@@ -11,7 +12,7 @@ Off: Luxel's nodes go, and the user's active output, active node and active UV m
 Nothing of the user's nodes is edited, so the trees return exactly."""
 import bpy
 
-from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, PAGE_KEY, UV_MAP
+from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, PAGE_KEY, UV_MAP, UV_MAP_BACK
 
 NODE_PREFIX = "Luxel "
 STATE_KEY = "luxel_display"      # the user's active output and active node while shown
@@ -111,7 +112,30 @@ def _add_nodes(material, pages, own_emission):
         attribute.location.y += y
         attribute.attribute_type, attribute.attribute_name = kind, key
         offsets[key] = attribute.outputs["Vector"]
-    place = uv.outputs["UV"]
+    # Back faces whose light was solved (luxel_object's third value 2) read their own map.
+    back_uv = add('ShaderNodeUVMap', "Back UV", -800)
+    back_uv.uv_map = UV_MAP_BACK
+    facing = add('ShaderNodeNewGeometry', "Geometry", -800)
+    facing.location.y -= 150
+    flags = add('ShaderNodeSeparateXYZ', "Flags", -800)
+    flags.location.y -= 450
+    links.new(offsets[OBJECT_OFFSET], flags.inputs[0])
+    has_back = add('ShaderNodeMath', "Has Back", -700)
+    has_back.operation = 'GREATER_THAN'
+    has_back.inputs[1].default_value = 1.5
+    links.new(flags.outputs["Z"], has_back.inputs[0])
+    back_shown = add('ShaderNodeMath', "Back Shown", -700)
+    back_shown.location.y -= 150
+    back_shown.operation = 'MULTIPLY'
+    links.new(facing.outputs["Backfacing"], back_shown.inputs[0])
+    links.new(has_back.outputs[0], back_shown.inputs[1])
+    side = add('ShaderNodeMix', "Side", -600)
+    side.location.y += 150
+    side.data_type = 'VECTOR'
+    links.new(back_shown.outputs[0], _socket(side.inputs, "Factor_Float"))
+    links.new(uv.outputs["UV"], _socket(side.inputs, "A_Vector"))
+    links.new(back_uv.outputs["UV"], _socket(side.inputs, "B_Vector"))
+    place = _socket(side.outputs, "Result_Vector")
     for key in offsets:
         total = add('ShaderNodeVectorMath', "Place " + key, -400)
         links.new(place, total.inputs[0])
@@ -155,11 +179,13 @@ def _add_nodes(material, pages, own_emission):
         links.new(glow.outputs[0], total.inputs[1])
         shader = total
     # An object the bake did not reach shows the material's own shader.
-    baked = add('ShaderNodeSeparateXYZ', "Baked", x + 200)
+    baked = add('ShaderNodeMath', "Baked", x + 200)
     baked.location.y -= 300
-    links.new(offsets[OBJECT_OFFSET], baked.inputs[0])
+    baked.operation = 'MINIMUM'
+    baked.inputs[1].default_value = 1.0
+    links.new(flags.outputs["Z"], baked.inputs[0])
     either = add('ShaderNodeMixShader', "Baked Or Own", x + 400)
-    links.new(baked.outputs["Z"], either.inputs["Fac"])
+    links.new(baked.outputs[0], either.inputs["Fac"])
     own = next((n for n in outputs if n.name == active_output), None)
     if own is not None and own.inputs["Surface"].is_linked:
         links.new(own.inputs["Surface"].links[0].from_socket, either.inputs[1])

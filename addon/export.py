@@ -11,7 +11,7 @@ from ..native import PointLight, Scene, SceneError, SpotLight, SunLight
 from ..native.atlas import overlapping_faces
 from ..native.scene import UV_TOLERANCE, triangle_areas
 from . import display
-from .writeback import MODIFIER, UV_MAP
+from .writeback import MODIFIER, UV_MAP, UV_MAP_BACK
 
 MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (native checks < 1)
 DISK_SEGMENTS = 32
@@ -36,6 +36,7 @@ class Receiver:
     loops: np.ndarray           # (T, 3) corner indices of each exported triangle
     corner_count: int           # corners of the evaluated mesh
     uv_source: str
+    back_faces: bool = False    # its back faces are solved, and shown (UV_MAP_BACK)
 
 
 @dataclass
@@ -44,6 +45,14 @@ class Export:
     receivers: list
     warnings: list = field(default_factory=list)
     emission_of_material: dict = field(default_factory=dict)
+
+
+@dataclass
+class _Inward:
+    """A closed mesh's part of the collector whose faces all point inwards."""
+    name: str
+    part: int                   # index into the collector's per-object lists
+    receiver: Receiver = None
 
 
 @dataclass
@@ -146,6 +155,7 @@ class _Exporter:
         self.texture_of_image = {}
         self.emission_of_material = {}
         self.shown_copies = set()
+        self.inward = []        # closed meshes whose normals point inwards (_Inward)
         self.hidden_by_collection = {obj.name for collection in bpy.data.collections
                                      if collection.hide_render
                                      for obj in collection.all_objects}
@@ -223,10 +233,14 @@ class _Exporter:
                       "show each")
             slot = block = None
             shows = False
-        if shows and uv_source == 'MESH' and len(original.data.uv_layers) >= 8 and (
-                "LuxelLightmap" not in original.data.uv_layers):
-            raise SceneError(f"object '{name}' already has 8 UV maps, Blender's limit: remove "
-                             "one so Luxel can add its lightmap UV map", name)
+        layers = original.data.uv_layers if original.type == 'MESH' else ()
+        needed = {UV_MAP, UV_MAP_BACK} if receive_back else {UV_MAP}
+        free = 8 - len([layer for layer in layers if layer.name not in needed])
+        if shows and uv_source == 'MESH' and free < len(needed):
+            fix = " or set Back Faces to Off" if receive_back else ""
+            raise SceneError(f"object '{name}' has {8 - free} UV maps of its own and Luxel "
+                             f"needs {len(needed)}, over Blender's limit of 8: remove "
+                             f"{len(needed) - free}{fix}", name)
         if shows:
             self.shown_copies.add((slot, block))
         return layout, slot, block, uv_source, shows
@@ -306,10 +320,15 @@ class _Exporter:
         first = self.collector.add(vertices, normals, triangles, object_index, albedo, emission,
                                    True, True, True, albedo_uv, texture_index, receive_back,
                                    polygon, lightmap_uv)
+        receiver = None
         if shows:
-            self.receivers.append(Receiver(original.name, instancer.name, object_index,
-                                           self.collector.layout[object_index], first, loops,
-                                           len(mesh.loops), uv_source))
+            receiver = Receiver(original.name, instancer.name, object_index,
+                                self.collector.layout[object_index], first, loops,
+                                len(mesh.loops), uv_source, bool(receive_back))
+            self.receivers.append(receiver)
+        closed = not _is_open(loop_vertex[loops])
+        if closed and _signed_volume(vertices[triangles]) < 0.0:
+            self.inward.append(_Inward(name, len(self.collector.triangles) - 1, receiver))
 
     def _own_lightmap_uv(self, mesh, uv_map, name, loops, polygon):
         """The corners (T, 3, 2) of the object's own lightmap UV map, refused (before anything
@@ -545,11 +564,39 @@ class _Exporter:
         return tuple(np.maximum(np.array(colour.default_value[:3]) *
                                 float(strength.default_value), 0.0))
 
+    def turn_outwards(self):
+        """A closed mesh whose normals point inwards is baked on its outside, unless it holds
+        a light or another object's centre (a room modelled as a box seen from within)."""
+        c = self.collector
+        inside_points = [np.asarray(light.position) for light in self.lights
+                         if isinstance(light, PointLight)]
+        centres = [vertices.mean(axis=0) for vertices in c.vertices]
+        for inward in self.inward:
+            corners = c.vertices[inward.part]
+            low, high = corners.min(axis=0), corners.max(axis=0)
+            margin = 0.01 * (high - low)
+            points = inside_points + [centre for part, centre in enumerate(centres)
+                                      if part != inward.part]
+            if any(((point > low + margin) & (point < high - margin)).all()
+                   for point in points):
+                continue
+            c.triangles[inward.part] = c.triangles[inward.part][:, ::-1].copy()
+            c.normals[inward.part] = -c.normals[inward.part]
+            for corners_of in (c.albedo_uv, c.lightmap_uv):
+                corners_of[inward.part] = corners_of[inward.part][:, ::-1].copy()
+            if inward.receiver is not None:
+                inward.receiver.loops = inward.receiver.loops[:, ::-1].copy()
+            self.warn(f"'{inward.name}' is a closed mesh whose normals point inwards, with "
+                      "nothing inside it: it was baked on its outside, the side that is seen; "
+                      "recalculate its normals (Edit Mode: Mesh > Normals > Recalculate "
+                      "Outside) so that every renderer agrees")
+
     def finish(self):
         c = self.collector
         if not c.triangles:
             raise SceneError("the scene has no visible mesh to bake: add a mesh, or make one "
                              "renderable (its camera icon in the outliner)")
+        self.turn_outwards()
         numbered = lambda keys: np.unique([repr(key) for key in keys], return_inverse=True)[1]
         layout = numbered(c.layout)
         for receiver in self.receivers:
@@ -647,6 +694,12 @@ def _excluded_objects(view_layer):
                 excluded.update(obj.name for obj in child.objects)
     visit(view_layer.layer_collection)
     return excluded - shown
+
+
+def _signed_volume(corners):
+    """Volume enclosed by triangles (T, 3, 3): negative where their fronts face inwards."""
+    return float(np.einsum("ij,ij->i", corners[:, 0],
+                           np.cross(corners[:, 1], corners[:, 2])).sum() / 6.0)
 
 
 def _is_open(corners):

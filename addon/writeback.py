@@ -11,11 +11,14 @@ import numpy as np
 from ..native import LuxelError, SettingsError, write_exr
 
 UV_MAP = "LuxelLightmap"
+UV_MAP_BACK = "LuxelLightmapBack"   # where back faces that are solved find their texels
 PAGE_KEY = "luxel_page"          # ID property marking Luxel's images, with their page number
-OBJECT_OFFSET = "luxel_object"        # on objects: their slot's offset, and 1 for "baked"
+# On objects: their slot's offset, and 1 for "baked" (2: with its back faces' texels too).
+OBJECT_OFFSET = "luxel_object"
 INSTANCER_OFFSET = "luxel_instancer"  # on instancers and objects: block offset, page + 1
 SNAPSHOT_PREFIX = "Luxel UV "    # the vertex-only meshes holding evaluated corners' UVs
 SNAPSHOT_ATTRIBUTE = "luxel_uv"
+SNAPSHOT_BACK_ATTRIBUTE = "luxel_uv_back"
 NODE_GROUP = "Luxel Lightmap UV"
 MODIFIER = "Luxel Lightmap"     # the modifier of Luxel's that adds the lightmap UV map
 STALE_UV = -1000.0               # where a stale snapshot puts the UVs: off every page
@@ -84,11 +87,14 @@ def _write_receivers(export, atlas, images, undo):
     (``luxel_instancer``, read as Instancer, which falls back to the object's own). A layout
     shown once has its whole place in the UV map, so that what reads the UV map alone
     (Workbench, a Cycles bake) finds it."""
-    row_of_triangle = np.full(len(export.scene.triangles), -1)
-    # Back faces solved on texels of their own come after the scene's triangles: no UV map
-    # shows them.
-    front = atlas.triangles < len(row_of_triangle)
+    count = len(export.scene.triangles)
+    row_of_triangle, row_of_back = np.full(count, -1), np.full(count, -1)
+    # Back faces solved on texels of their own come after the scene's triangles, wound the
+    # other way (Scene.with_back_faces).
+    front = atlas.triangles < count
     row_of_triangle[atlas.triangles[front]] = np.nonzero(front)[0]
+    originals = export.scene.back_face_originals()
+    row_of_back[originals[atlas.triangles[~front] - count]] = np.nonzero(~front)[0]
     page_size = np.array([atlas.width, atlas.height], dtype=np.float64)
     shown = {}
     for receiver in export.receivers:
@@ -97,9 +103,13 @@ def _write_receivers(export, atlas, images, undo):
     for receivers in shown.values():
         whole = len(receivers) == 1
         first = receivers[0]
-        rows = row_of_triangle[first.first_triangle:first.first_triangle + len(first.loops)]
+        triangles = slice(first.first_triangle, first.first_triangle + len(first.loops))
         origin = np.zeros(2) if whole else atlas.object_origin[first.object_index]
-        uv = (atlas.texels[rows] - origin) / page_size
+        uv = (atlas.texels[row_of_triangle[triangles]] - origin) / page_size
+        back_rows = row_of_back[triangles]
+        back_uv = None
+        if first.back_faces and (back_rows >= 0).all():
+            back_uv = (atlas.texels[back_rows][:, ::-1] - origin) / page_size
         for receiver in receivers:
             obj = bpy.data.objects.get(receiver.object_name)
             instancer = bpy.data.objects.get(receiver.instancer_name)
@@ -109,8 +119,9 @@ def _write_receivers(export, atlas, images, undo):
             if whole:
                 offset, block = np.zeros(2), np.zeros(2)
             if obj.name not in written:
-                _write_uvs(obj, receiver, uv, undo)
-                _set_property(obj, OBJECT_OFFSET, [*(offset / page_size), 1.0], undo)
+                _write_uvs(obj, receiver, uv, back_uv, undo)
+                _set_property(obj, OBJECT_OFFSET,
+                              [*(offset / page_size), 1.0 if back_uv is None else 2.0], undo)
                 undo.append(lambda obj=obj, record=(obj.luxel.image, obj.luxel.uv_map):
                             _set_record(obj, *record))
                 _set_record(obj, images[page], UV_MAP)
@@ -128,14 +139,33 @@ def _set_property(obj, key, value, undo):
     obj[key] = value
 
 
-def _write_uvs(obj, receiver, triangle_uv, undo):
+def _write_uvs(obj, receiver, triangle_uv, back_uv, undo):
     if receiver.uv_source == 'MESH':
         _remove_snapshot(obj)
-        _write_uv_map(obj.data, receiver.loops, triangle_uv, undo)
+        _write_uv_map(obj.data, UV_MAP, receiver.loops, triangle_uv, undo)
+        if back_uv is not None:
+            _write_uv_map(obj.data, UV_MAP_BACK, receiver.loops, back_uv, undo)
+        else:
+            _remove_uv_map(obj.data, UV_MAP_BACK, undo)
     else:
-        if obj.type == 'MESH' and UV_MAP in obj.data.uv_layers:   # baked without modifiers
-            obj.data.uv_layers.remove(obj.data.uv_layers[UV_MAP])
-        _write_snapshot(obj, receiver, triangle_uv, undo)
+        for name in (UV_MAP, UV_MAP_BACK):      # baked before without modifiers
+            _remove_uv_map(obj.data, name, undo)
+        _write_snapshot(obj, receiver, triangle_uv, back_uv, undo)
+
+
+def _remove_uv_map(data, name, undo):
+    """Remove a UV map of Luxel's; undo brings back its UVs."""
+    layers = data.uv_layers if isinstance(data, bpy.types.Mesh) else None
+    if layers is None or name not in layers:
+        return
+    values = np.empty(len(data.loops) * 2, dtype=np.float32)
+    layers[name].uv.foreach_get("vector", values)
+    layers.remove(layers[name])
+
+    def restore():
+        layers.new(name=name, do_init=False)
+        _set_uvs(data, name, values)
+    undo.append(restore)
 
 
 def _set_record(obj, image, uv_map):
@@ -147,9 +177,10 @@ def clear_object(obj):
     """Remove what a previous bake left on ``obj``: its lightmap UV map or modifier and
     snapshot, its offsets and its image reference."""
     if obj.type == 'MESH' and obj.luxel.uv_map:
-        layer = obj.data.uv_layers.get(obj.luxel.uv_map)
-        if layer is not None:
-            obj.data.uv_layers.remove(layer)
+        for name in (obj.luxel.uv_map, UV_MAP_BACK):
+            layer = obj.data.uv_layers.get(name)
+            if layer is not None:
+                obj.data.uv_layers.remove(layer)
     _remove_snapshot(obj)
     for key in (OBJECT_OFFSET, INSTANCER_OFFSET):
         obj.pop(key, None)
@@ -197,7 +228,7 @@ def snapshot_of(obj):
     modifier = obj.modifiers.get(MODIFIER)
     if modifier is None or modifier.type != 'NODES':
         return None
-    return modifier.get(_snapshot_socket(modifier))
+    return modifier.get(_socket(modifier, "Snapshot"))
 
 
 def _page_image(scene, index, page, directory, undo):
@@ -275,13 +306,13 @@ def _make_directory(directory, undo):
         undo.append(lambda path=path: os.rmdir(path))
 
 
-def _write_uv_map(mesh, loops, triangle_uv, undo):
+def _write_uv_map(mesh, name, loops, triangle_uv, undo):
     layers = mesh.uv_layers
-    layer = layers.get(UV_MAP)
+    layer = layers.get(name)
     if layer is None:
         active, active_render = layers.active_index, _active_render_index(layers)
-        layer = layers.new(name=UV_MAP, do_init=False)
-        undo.append(lambda: layers.remove(layers[UV_MAP]))
+        layer = layers.new(name=name, do_init=False)
+        undo.append(lambda: layers.remove(layers[name]))
         # A new layer must not take over the user's active or render UV map.
         if active >= 0:
             layers.active_index = active
@@ -290,14 +321,14 @@ def _write_uv_map(mesh, loops, triangle_uv, undo):
     else:
         before = np.empty(len(mesh.loops) * 2, dtype=np.float32)
         layer.uv.foreach_get("vector", before)
-        undo.append(lambda: _set_uvs(mesh, before))
+        undo.append(lambda: _set_uvs(mesh, name, before))
     loop_uv = np.zeros((len(mesh.loops), 2), dtype=np.float32)
     loop_uv[loops.ravel()] = triangle_uv.reshape(-1, 2)
-    _set_uvs(mesh, loop_uv.ravel())
+    _set_uvs(mesh, name, loop_uv.ravel())
 
 
-def _set_uvs(mesh, values):
-    mesh.uv_layers[UV_MAP].uv.foreach_set("vector", values)
+def _set_uvs(mesh, name, values):
+    mesh.uv_layers[name].uv.foreach_set("vector", values)
     mesh.update()
 
 
@@ -309,17 +340,22 @@ def _active_render_index(layers):
 
 
 # -------------------------------------------------------------- the modifier and its snapshot
-def _write_snapshot(obj, receiver, triangle_uv, undo):
-    """The evaluated corners' lightmap UVs, as a vertex per corner of a mesh of Luxel's, and
-    the modifier at the end of the object's stack that copies them onto the corners."""
-    corner_uv = np.zeros((receiver.corner_count, 3), dtype=np.float32)
-    corner_uv[receiver.loops.ravel(), :2] = triangle_uv.reshape(-1, 2)
+def _write_snapshot(obj, receiver, triangle_uv, back_uv, undo):
+    """The evaluated corners' lightmap UVs (and their back faces'), as a vertex per corner of
+    a mesh of Luxel's, and the modifier at the end of the object's stack that copies them
+    onto the corners."""
     name = SNAPSHOT_PREFIX + obj.name
     mesh = bpy.data.meshes.new(name)
     undo.append(lambda: bpy.data.meshes.remove(mesh))
     mesh.vertices.add(receiver.corner_count)
-    attribute = mesh.attributes.new(SNAPSHOT_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT')
-    attribute.data.foreach_set("vector", corner_uv.ravel())
+    for attribute_name, uv in ((SNAPSHOT_ATTRIBUTE, triangle_uv),
+                               (SNAPSHOT_BACK_ATTRIBUTE, back_uv)):
+        if uv is None:
+            continue
+        corner_uv = np.zeros((receiver.corner_count, 3), dtype=np.float32)
+        corner_uv[receiver.loops.ravel(), :2] = uv.reshape(-1, 2)
+        attribute = mesh.attributes.new(attribute_name, 'FLOAT_VECTOR', 'POINT')
+        attribute.data.foreach_set("vector", corner_uv.ravel())
     snapshot = snapshot_of(obj)
     if snapshot is None:
         snapshot = bpy.data.objects.new(name, mesh)
@@ -328,11 +364,16 @@ def _write_snapshot(obj, receiver, triangle_uv, undo):
         undo.append(lambda: obj.modifiers.remove(obj.modifiers[MODIFIER]))
         modifier.node_group = _node_group()
         modifier.show_in_editmode = False
-        modifier[_snapshot_socket(modifier)] = snapshot
+        modifier[_socket(modifier, "Snapshot")] = snapshot
     else:
         before = snapshot.data
         snapshot.data = mesh
         undo.append(lambda: setattr(snapshot, "data", before))
+    modifier = obj.modifiers[MODIFIER]
+    back_faces = _socket(modifier, "Back Faces")
+    shown_before = bool(modifier.get(back_faces, False))
+    modifier[back_faces] = back_uv is not None
+    undo.append(lambda: modifier.__setitem__(back_faces, shown_before))
     # The modifier comes last, after any the user added since.
     if obj.modifiers[-1].name != MODIFIER:
         index = list(obj.modifiers).index(obj.modifiers[MODIFIER])
@@ -351,13 +392,15 @@ def _remove_snapshot(obj):
             bpy.data.meshes.remove(mesh)
 
 
-def _snapshot_socket(modifier):
-    return modifier.node_group.interface.items_tree["Snapshot"].identifier
+def _socket(modifier, name):
+    """The key of the modifier's input ``name`` (an ID property of the modifier)."""
+    return modifier.node_group.interface.items_tree[name].identifier
 
 
 def _node_group():
     """Luxel's geometry nodes: the snapshot's UV of each corner, by index, stored as the
-    lightmap UV map; far outside every page when the corners no longer match."""
+    lightmap UV map (and the back faces' map, where the modifier's Back Faces is on); far
+    outside every page when the corners no longer match."""
     group = bpy.data.node_groups.get(NODE_GROUP)
     if group is not None:
         return group
@@ -365,19 +408,12 @@ def _node_group():
     interface = group.interface
     interface.new_socket("Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
     interface.new_socket("Snapshot", in_out='INPUT', socket_type='NodeSocketObject')
+    interface.new_socket("Back Faces", in_out='INPUT', socket_type='NodeSocketBool')
     interface.new_socket("Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
     nodes, links = group.nodes, group.links
     inputs, outputs = nodes.new('NodeGroupInput'), nodes.new('NodeGroupOutput')
     info = nodes.new('GeometryNodeObjectInfo')
     links.new(inputs.outputs["Snapshot"], info.inputs["Object"])
-    sample = nodes.new('GeometryNodeSampleIndex')
-    sample.data_type, sample.domain = 'FLOAT_VECTOR', 'POINT'
-    links.new(info.outputs["Geometry"], sample.inputs["Geometry"])
-    stored = nodes.new('GeometryNodeInputNamedAttribute')
-    stored.data_type = 'FLOAT_VECTOR'
-    stored.inputs["Name"].default_value = SNAPSHOT_ATTRIBUTE
-    links.new(stored.outputs["Attribute"], sample.inputs["Value"])
-    links.new(nodes.new('GeometryNodeInputIndex').outputs[0], sample.inputs["Index"])
     corners = nodes.new('GeometryNodeAttributeDomainSize')
     corners.component = 'MESH'
     links.new(inputs.outputs["Geometry"], corners.inputs[0])
@@ -388,15 +424,36 @@ def _node_group():
     same.data_type, same.operation = 'INT', 'EQUAL'
     links.new(corners.outputs["Face Corner Count"], same.inputs[2])
     links.new(points.outputs["Point Count"], same.inputs[3])
-    switch = nodes.new('GeometryNodeSwitch')
-    switch.input_type = 'VECTOR'
-    switch.inputs["False"].default_value = (STALE_UV, STALE_UV, 0.0)
-    links.new(same.outputs[0], switch.inputs["Switch"])
-    links.new(sample.outputs[0], switch.inputs["True"])
-    store = nodes.new('GeometryNodeStoreNamedAttribute')
-    store.data_type, store.domain = 'FLOAT2', 'CORNER'
-    store.inputs["Name"].default_value = UV_MAP
-    links.new(inputs.outputs["Geometry"], store.inputs["Geometry"])
-    links.new(switch.outputs[0], store.inputs["Value"])
-    links.new(store.outputs[0], outputs.inputs[0])
+    index = nodes.new('GeometryNodeInputIndex').outputs[0]
+    geometry = inputs.outputs["Geometry"]
+    for attribute, uv_map in ((SNAPSHOT_ATTRIBUTE, UV_MAP),
+                              (SNAPSHOT_BACK_ATTRIBUTE, UV_MAP_BACK)):
+        sample = nodes.new('GeometryNodeSampleIndex')
+        sample.data_type, sample.domain = 'FLOAT_VECTOR', 'POINT'
+        links.new(info.outputs["Geometry"], sample.inputs["Geometry"])
+        stored = nodes.new('GeometryNodeInputNamedAttribute')
+        stored.data_type = 'FLOAT_VECTOR'
+        stored.inputs["Name"].default_value = attribute
+        links.new(stored.outputs["Attribute"], sample.inputs["Value"])
+        links.new(index, sample.inputs["Index"])
+        switch = nodes.new('GeometryNodeSwitch')
+        switch.input_type = 'VECTOR'
+        switch.inputs["False"].default_value = (STALE_UV, STALE_UV, 0.0)
+        links.new(same.outputs[0], switch.inputs["Switch"])
+        links.new(sample.outputs[0], switch.inputs["True"])
+        store = nodes.new('GeometryNodeStoreNamedAttribute')
+        store.data_type, store.domain = 'FLOAT2', 'CORNER'
+        store.inputs["Name"].default_value = uv_map
+        links.new(geometry, store.inputs["Geometry"])
+        links.new(switch.outputs[0], store.inputs["Value"])
+        if uv_map == UV_MAP_BACK:       # only for objects whose back faces were solved
+            either = nodes.new('GeometryNodeSwitch')
+            either.input_type = 'GEOMETRY'
+            links.new(inputs.outputs["Back Faces"], either.inputs["Switch"])
+            links.new(geometry, either.inputs["False"])
+            links.new(store.outputs[0], either.inputs["True"])
+            geometry = either.outputs[0]
+        else:
+            geometry = store.outputs[0]
+    links.new(geometry, outputs.inputs[0])
     return group

@@ -334,7 +334,7 @@ class Scene:
         original triangles."""
         receiving_back = self.receive_back & self.receive
         emitting_back = self.emission_two_sided & (self.emission.max(axis=1) > 0.0)
-        backs = np.nonzero(receiving_back | emitting_back)[0]
+        backs = self.back_face_originals()
         if len(backs) == 0:
             return self
         count, vertex_count = len(self.triangles), len(self.vertices)
@@ -366,6 +366,13 @@ class Scene:
             polygon=extend(self.polygon, np.full(len(backs), -1)))   # no UV map shows copies
         copy.back_of = extend(np.full(count, -1), backs)  # the original of each copy
         return copy
+
+    def back_face_originals(self):
+        """The triangles with_back_faces() copies, in the order of their copies (appended
+        after the scene's triangles)."""
+        receiving_back = self.receive_back & self.receive
+        emitting_back = self.emission_two_sided & (self.emission.max(axis=1) > 0.0)
+        return np.nonzero(receiving_back | emitting_back)[0]
 
     def bounds(self):
         return self.vertices.min(axis=0), self.vertices.max(axis=0)

@@ -1,0 +1,131 @@
+"""Back faces in Blender: a sheet whose back faces are solved (Back Faces On) shows their light
+when seen from behind, in a Cycles render of Show Baked Lighting; a closed mesh whose normals
+point inwards is baked on the side that is seen, while a room modelled as a box seen from
+within keeps its inward faces."""
+import importlib
+import math
+
+import numpy as np
+
+import blender_scenes
+import blender_session
+from test_blender_parity import assert_close, print_table
+
+bpy = blender_session.blender()
+addon = blender_session.addon().addon
+reference = importlib.import_module(blender_session.MODULE + ".addon.reference")
+
+ALBEDO = 0.5
+POWER = 100.0
+
+
+def sheet_lit_from_behind():
+    """A 2 m sheet at z = 1 facing up, a point light 0.5 m under its centre, a dark floor."""
+    scene = blender_session.empty_file()
+    blender_scenes.quad(scene, "Sheet", [(-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1)],
+                        blender_scenes.material("Sheet", (ALBEDO,) * 3))
+    blender_scenes.quad(scene, "Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)],
+                        blender_scenes.material("Floor", (0.05,) * 3))
+    blender_scenes.light(scene, "Lamp", 'POINT', (0.0, 0.0, 0.5), energy=POWER)
+    blender_scenes.luxel_settings(scene, 16.0, threshold=0.01)
+    scene.objects["Sheet"].luxel.back_faces = 'ON'
+    return scene
+
+
+def render_centre(scene, tmp_path, height, looking_up):
+    """The mean of the central 8 x 8 pixels of a Cycles render of Show Baked Lighting from
+    (0, 0, height), straight up or down (linear EXR, no view transform)."""
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location = (0.0, 0.0, height)
+    camera.rotation_euler = (math.pi if looking_up else 0.0, 0.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.engine = 'CYCLES'
+    scene.cycles.samples = 4
+    scene.cycles.use_denoising = False
+    scene.render.resolution_x = scene.render.resolution_y = 32
+    scene.view_settings.view_transform = 'Standard'
+    scene.render.image_settings.file_format = 'OPEN_EXR'
+    path = tmp_path / f"render-{'up' if looking_up else 'down'}.exr"
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(str(path))
+    pixels = np.array(image.pixels[:]).reshape(32, 32, 4)
+    bpy.data.images.remove(image)
+    bpy.data.objects.remove(camera)
+    return pixels[12:20, 12:20, :3].mean()
+
+
+def test_back_faces_that_are_solved_are_shown_from_behind(tmp_path):
+    scene = sheet_lit_from_behind()
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    sheet = scene.objects["Sheet"]
+    assert "LuxelLightmapBack" in sheet.data.uv_layers
+    scene.luxel.show_baked = True
+    # Direct light on the back right above the lamp: rho I / (pi d^2), I = P / (4 pi); the
+    # dark floor adds under 1 % and the view's 8 x 8 pixels span 4 degrees of cos^3 falloff.
+    direct = ALBEDO * POWER / (4 * math.pi) / (math.pi * 0.5 ** 2)
+    from_below = render_centre(scene, tmp_path, 0.25, looking_up=True)
+    assert 0.97 * direct < from_below < 1.05 * direct
+    from_above = render_centre(scene, tmp_path, 2.0, looking_up=False)
+    assert from_above < 0.05 * direct
+    scene.luxel.show_baked = False
+    bpy.ops.luxel.remove_lightmaps()
+    assert "LuxelLightmapBack" not in sheet.data.uv_layers
+
+
+def closed_cube(scene, name, centre, size, mat, inwards):
+    (cx, cy, cz), half = centre, size / 2
+    vertices = [(cx + x * half, cy + y * half, cz + z * half)
+                for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]
+    faces = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    if inwards:
+        faces = [tuple(reversed(face)) for face in faces]
+    return blender_scenes.mesh_object(scene, name, vertices, faces, mat)
+
+
+def stage_with_cube(inwards):
+    scene = blender_scenes.point_scene()
+    bpy.data.objects.remove(scene.objects["Block"])
+    closed_cube(scene, "Cube", (0.3, 0.5, 0.41), 0.8,
+                blender_scenes.material("Cube", (0.2, 0.3, 0.6)), inwards)
+    return scene
+
+
+def test_a_closed_mesh_with_inward_normals_bakes_its_outside_like_cycles_sees_it():
+    stage_with_cube(inwards=False)
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    cycles = reference.object_means(reference.cycles_reference(bpy.context, samples=256,
+                                                               bounces=32))
+    scene = stage_with_cube(inwards=True)
+    job = addon.bake.BakeJob(bpy.context)
+    while not job.step(1.0):
+        pass
+    job.finish()
+    assert any(w.startswith("'Cube' is a closed mesh whose normals point inwards")
+               for w in job.warnings)
+    # Luxel's means over the texels a Cycles bake covers (one sample: only its coverage is
+    # used), against the Cycles means of the cube with its normals outwards.
+    luxel = reference.object_means(reference.cycles_reference(bpy.context, samples=1,
+                                                              bounces=0))
+    for name, mean in luxel.items():
+        mean.cycles, mean.cycles_error = cycles[name].cycles, cycles[name].cycles_error
+    print_table(luxel)
+    assert_close(luxel, set(cycles))
+
+
+def test_a_room_seen_from_inside_keeps_its_inward_faces():
+    scene = blender_session.empty_file()
+    closed_cube(scene, "Room", (0.0, 0.0, 1.5), 3.0, blender_scenes.material("Room", (0.5,) * 3),
+                inwards=True)
+    blender_scenes.light(scene, "Lamp", 'POINT', (0.2, 0.1, 2.0), energy=POWER)
+    blender_scenes.luxel_settings(scene, 6.0, threshold=0.01)
+    job = addon.bake.BakeJob(bpy.context)
+    while not job.step(1.0):
+        pass
+    job.finish()
+    assert not any("point inwards" in w for w in job.warnings)
+    means = reference.object_means(reference.cycles_reference(bpy.context, samples=128,
+                                                              bounces=32))
+    print_table(means)
+    assert_close(means, {"Room"})
