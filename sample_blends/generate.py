@@ -728,20 +728,153 @@ def build_columns():
     return scene
 
 
+def uv_from_xy(obj, scale):
+    """A UV map "UVMap" projected from the mesh's x and y (metres times ``scale``)."""
+    layer = obj.data.uv_layers.new(name="UVMap")
+    for loop in obj.data.loops:
+        co = obj.data.vertices[loop.vertex_index].co
+        layer.uv[loop.index].vector = (co.x * scale, co.y * scale)
+
+
+def floorboards_image(name, size=64):
+    """A packed sRGB image of planks in three browns, for the textured floor."""
+    image = bpy.data.images.new(name, size, size)
+    browns = [(0.45, 0.30, 0.18), (0.38, 0.25, 0.15), (0.52, 0.36, 0.22)]
+    pixels = []
+    for y in range(size):
+        for x in range(size):
+            plank = (x // 16 + (y // 32) * 2) % 3
+            pixels += [*browns[plank], 1.0]
+    image.pixels.foreach_set(pixels)
+    image.pack()
+    return image
+
+
+def textured(name, image):
+    mat = diffuse(name, (0.8, 0.8, 0.8))
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    texture = nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    links.new(texture.outputs["Color"], nodes["Principled BSDF"].inputs["Base Color"])
+    return mat
+
+
+def build_interior():
+    """A small interior modelled the way users model one, for issue-sized realism: walls as
+    inward planes thickened by Solidify with a window cut by a Boolean, sunlight through the
+    window, an area light, an emissive lamp shade, an image-textured floor, a sofa with
+    Bevel and Subdivision Surface, a bookshelf by an Array, a vase by a Mirror, four chairs
+    as linked duplicates, a table set kept in an excluded collection and instanced twice,
+    a lamp cable as a curve and a sign as a text object."""
+    scene = new_scene()
+    wall = diffuse("wall", WHITE)
+    wood = diffuse("wood", (0.40, 0.26, 0.15))
+    fabric = diffuse("fabric", (0.35, 0.38, 0.42))
+    ceramic = diffuse("ceramic", (0.10, 0.20, 0.55))
+    dark = diffuse("dark", (0.05, 0.05, 0.06))
+    shade = emitter("lamp_shade", (1.0, 0.85, 0.6), 6.0)
+    floor_mat = textured("floorboards", floorboards_image("floorboards"))
+    sx, sy, h = 3.0, 2.0, 2.7
+
+    # Walls: four inward planes in one mesh, thickened outwards, a window cut through.
+    verts, faces = box((-sx, -sy, 0.0), (sx, sy, h), skip=("-z", "+z"), inward=True)
+    walls = MeshBuilder().add((verts, faces)).build(scene, "walls", [wall])
+    solidify = walls.modifiers.new("Solidify", "SOLIDIFY")
+    solidify.thickness, solidify.offset = 0.2, 1.0
+    cutter = single(box((1.2, -sy - 0.5, 1.0), (2.4, -sy + 0.5, 2.2)), scene, "window_cut", wall)
+    cutter.hide_render, cutter.display_type = True, "WIRE"
+    boolean = walls.modifiers.new("Window", "BOOLEAN")
+    boolean.object, boolean.operation = cutter, "DIFFERENCE"
+    floor = single(plane(2 * sx, 2 * sy), scene, "floor", floor_mat)
+    uv_from_xy(floor, 0.5)
+    single(rect_down(2 * sx, 2 * sy), scene, "ceiling", wall, location=(0.0, 0.0, h))
+
+    add_light(scene, "sun", "SUN", 3.0, (0.0, 0.0, 5.0),
+              rotation=(math.radians(55.0), 0.0, math.radians(-20.0)))
+    area = add_light(scene, "ceiling_light", "AREA", 150.0, (-1.0, 0.5, h - 0.01))
+    area.data.size = 0.6
+
+    sofa_obj = single(box((-0.9, -0.35, 0.0), (0.9, 0.35, 0.6), skip=("-z",)), scene, "sofa",
+                      fabric, location=(-0.8, sy - 0.5, 0.0))
+    sofa_obj.modifiers.new("Bevel", "BEVEL").width = 0.05
+    sofa_obj.modifiers.new("Subdivision", "SUBSURF").levels = 1
+
+    shelf = single(box((0.0, 0.0, 0.0), (0.35, 0.3, 1.8), skip=("-z",)), scene, "bookshelf",
+                   wood, location=(-sx + 0.05, -sy + 0.05, 0.0))
+    array = shelf.modifiers.new("Array", "ARRAY")
+    array.count, array.relative_offset_displace = 4, (1.05, 0.0, 0.0)
+
+    vase = single(box((0.0, -0.08, 0.0), (0.08, 0.08, 0.35), skip=("-z",)), scene, "vase",
+                  ceramic, location=(0.6, 0.0, 0.75))
+    vase.modifiers.new("Mirror", "MIRROR").use_axis = (True, False, False)
+
+    chair = single(box((-0.22, -0.22, 0.0), (0.22, 0.22, 0.45), skip=("-z",)), scene, "chair",
+                   wood, location=(-0.1, -0.6, 0.0))
+    for index, (x, y) in enumerate(((1.3, -0.6), (-0.1, 0.6), (1.3, 0.6)), start=1):
+        twin = chair.copy()             # linked duplicates share the chair's mesh
+        twin.name, twin.location = f"chair_{index}", (x, y, 0.0)
+        scene.collection.objects.link(twin)
+    single(box((-0.7, -0.4, 0.7), (0.7, 0.4, 0.75)), scene, "table", wood,
+           location=(0.6, 0.0, 0.0))
+
+    # A side-table set kept in an excluded collection and instanced twice.
+    table_set = bpy.data.collections.new("side_table_set")
+    scene.collection.children.link(table_set)
+    for name, part in (("side_table", box((-0.25, -0.25, 0.0), (0.25, 0.25, 0.5), skip=("-z",))),
+                       ("side_stool", box((0.35, -0.15, 0.0), (0.65, 0.15, 0.35), skip=("-z",)))):
+        obj = single(part, scene, name, wood)
+        scene.collection.objects.unlink(obj)
+        table_set.objects.link(obj)
+    bpy.context.view_layer.layer_collection.children["side_table_set"].exclude = True
+    for name, location in (("side_set_west", (-2.4, 0.6, 0.0)), ("side_set_east", (2.2, 1.4, 0.0))):
+        empty = bpy.data.objects.new(name, None)
+        empty.instance_type, empty.instance_collection = "COLLECTION", table_set
+        empty.location = location
+        scene.collection.objects.link(empty)
+
+    # A floor lamp: pole, and an open shade that glows on both sides.
+    single(box((-0.02, -0.02, 0.0), (0.02, 0.02, 1.4)), scene, "lamp_pole", dark,
+           location=(2.4, -1.4, 0.0))
+    single(lathe([(0.22, 0.0), (0.15, 0.3)], 24), scene, "lamp_shade", shade,
+           location=(2.4, -1.4, 1.3))
+    curve = bpy.data.curves.new("lamp_cable", "CURVE")
+    curve.dimensions, curve.bevel_depth = "3D", 0.01
+    spline = curve.splines.new("POLY")
+    spline.points.add(2)
+    for point, co in zip(spline.points, ((2.4, -1.4, 0.01), (2.6, -1.7, 0.01), (2.9, -1.95, 0.3))):
+        point.co = (*co, 1.0)
+    cable = bpy.data.objects.new("lamp_cable", curve)
+    cable.data.materials.append(dark)
+    scene.collection.objects.link(cable)
+    text = bpy.data.curves.new("sign", "FONT")
+    text.body, text.extrude, text.size = "LUXEL", 0.02, 0.4
+    sign = bpy.data.objects.new("sign", text)
+    sign.data.materials.append(ceramic)
+    sign.location, sign.rotation_euler = (-1.5, sy - 0.05, 1.6), (math.pi / 2, 0.0, math.pi)
+    scene.collection.objects.link(sign)
+
+    add_camera(scene, (2.7, 1.7, 1.9), (-1.0, -0.8, 0.6), lens=20.0)
+    return scene
+
+
 SCENES = {
     "cornell_box": build_cornell_box,
     "temple": build_temple,
     "office": build_office,
     "living": build_living,
     "columns": build_columns,
+    "interior": build_interior,
 }
+# Scenes built the way users build them: shared meshes and modifiers are the point.
+AS_USERS_BUILD = {"interior"}
 
 
 # --- checks and output ------------------------------------------------------------
 
 
-def check_meshes():
-    """Raise if a mesh has coincident vertices or (near) zero-area faces."""
+def check_meshes(shared=False):
+    """Raise if a mesh has coincident vertices or (near) zero-area faces, or more than one
+    user unless ``shared``."""
     for mesh in bpy.data.meshes:
         tree = KDTree(len(mesh.vertices))
         for v in mesh.vertices:
@@ -753,7 +886,7 @@ def check_meshes():
         for p in mesh.polygons:
             if p.area < 1e-8:
                 raise ValueError(f"{mesh.name}: degenerate face {p.index}")
-        if mesh.users != 1:
+        if mesh.users != 1 and not shared:
             raise ValueError(f"{mesh.name}: {mesh.users} users")
 
 
@@ -786,7 +919,7 @@ def main():
     os.makedirs(args.output, exist_ok=True)
     for name in args.names or SCENES:
         scene = SCENES[name]()
-        check_meshes()
+        check_meshes(shared=name in AS_USERS_BUILD)
         path = os.path.join(os.path.abspath(args.output), f"{name}.blend")
         bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
         print(

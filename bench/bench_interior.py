@@ -1,0 +1,85 @@
+"""The realistic interior (sample_blends/interior.blend, built the way users model one): the
+share of the rendered surface that gets a lightmap, the bake's time, texels and shots, and
+each mesh object's mean against a Cycles bake into the same lightmap UVs. Objects shown
+through Luxel's modifier, and copies of one mesh (whose UV map holds their shared layout,
+placed per copy by the material), have no Cycles bake here yet: they count in the area share
+only.
+
+    python bench/bench_interior.py [--density D] [--threshold T] [--samples N] [--json PATH]
+"""
+import argparse
+import importlib
+from pathlib import Path
+import sys
+import time
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tools"))
+sys.path.insert(0, str(ROOT / "bench"))
+import blender as runner  # noqa: E402  (tools/blender.py)
+from common import save_results  # noqa: E402
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--density", type=float, default=10.0)
+    parser.add_argument("--threshold", type=float, default=0.02)
+    parser.add_argument("--samples", type=int, default=128)
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args()
+    bpy = runner.start_blender()
+    addon = runner.luxel().addon
+    reference = importlib.import_module(runner.MODULE + ".addon.reference")
+    bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / "interior.blend"))
+    scene = bpy.context.scene
+    scene.luxel.texel_density, scene.luxel.threshold = args.density, args.threshold
+
+    export = addon.export.export_scene(bpy.context)
+    solver_scene = export.scene
+    lights = {obj.name for obj in scene.objects if obj.type == 'LIGHT'}
+    surface = np.array([name not in lights for name in solver_scene.object_names])
+    area = solver_scene.triangle_area
+    rendered = area[surface[solver_scene.object_index]].sum()
+    shown = sum(area[r.first_triangle:r.first_triangle + len(r.loops)].sum()
+                for r in export.receivers)
+
+    started = time.perf_counter()
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    seconds = time.perf_counter() - started
+    stats = scene.luxel.stats
+    started = time.perf_counter()
+    # A Cycles bake writes through the mesh's own UV map: objects with a layout of their own
+    # and their mesh's corners (no modifier changing them).
+    layouts = [r.layout for r in export.receivers]
+    compared = [r.object_name for r in export.receivers
+                if r.uv_source == 'MESH' and layouts.count(r.layout) == 1]
+    means = reference.object_means(reference.cycles_reference(bpy.context, args.samples, 32,
+                                                              objects=compared))
+    cycles_seconds = time.perf_counter() - started
+    luminance = np.array([0.2126, 0.7152, 0.0722])
+    rows = []
+    for name, mean in sorted(means.items()):
+        ratio = float(mean.luxel @ luminance / max(mean.cycles @ luminance, 1e-30))
+        rows.append({"object": name, "texels": mean.texels, "luxel": mean.luxel.tolist(),
+                     "cycles": mean.cycles.tolist(), "ratio": ratio})
+        print(f"{name:>14} {mean.texels:7d} texels  Luxel/Cycles {ratio:6.3f}")
+    result = {"solver_objects": len(solver_scene.object_names), "receivers": len(export.receivers),
+              "triangles": len(solver_scene.triangles), "area_shown": float(shown / rendered),
+              "bake_seconds": seconds, "texels": stats.texels, "shots": stats.shots,
+              "unshot_percent": stats.unshot, "density": args.density,
+              "threshold": args.threshold, "cycles_samples": args.samples,
+              "cycles_seconds": cycles_seconds, "objects": rows,
+              "warnings": list(export.warnings)}
+    print(f"shown {100 * result['area_shown']:.1f} % of the rendered area; bake {seconds:.1f} s, "
+          f"{stats.texels} texels, {stats.shots} shots; Cycles {cycles_seconds:.1f} s")
+    for warning in export.warnings:
+        print("warning:", warning)
+    save_results(args.json, result)
+    import os
+    os._exit(0)     # bpy's teardown after a bake can crash on some versions
+
+
+if __name__ == "__main__":
+    main()
