@@ -14,28 +14,52 @@ import numpy as np
 from ..native.compare import texel_noise
 from .display import STATE_KEY, strip_display_nodes
 from .export import DEFAULT_ALBEDO
-from .writeback import UV_MAP
+from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, UV_MAP, image_name, snapshot_of
 
 PASS_FILTER = {'DIRECT', 'INDIRECT', 'COLOR'}
 TEMP_PREFIX = "Luxel Reference "
 
 
 def receivers(scene, objects=None):
-    """The meshes a Luxel bake gave a lightmap, optionally restricted to ``objects`` (objects
-    or names)."""
+    """The meshes a Luxel bake gave a lightmap that a Cycles bake can reach in place: their
+    own UV map holds their whole place on the page (no modifier of Luxel's, no other copy of
+    their mesh, no offset), optionally restricted to ``objects`` (objects or names)."""
     if objects is None:
         candidates = list(scene.objects)
     else:
         candidates = [scene.objects[o] if isinstance(o, str) else o for o in objects]
-    return [obj for obj in candidates
-            if obj.type == 'MESH' and obj.luxel.uv_map and obj.luxel.image is not None]
+    return [obj for obj in candidates if _in_place(obj)]
 
 
-def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0):
+def _in_place(obj):
+    if obj.type != 'MESH' or not obj.luxel.uv_map or obj.luxel.image is None:
+        return False
+    offsets = [obj.get(key) for key in (OBJECT_OFFSET, INSTANCER_OFFSET)]
+    return (snapshot_of(obj) is None and obj.data.users == 1 and obj.luxel.uv_map in
+            obj.data.uv_layers and all(o is not None and not any(o[:2]) for o in offsets))
+
+
+@dataclass
+class _Copy:
+    """One shown copy of an object, as the depsgraph lists it."""
+    key: str            # the solver's name: "instancer/object", or the object's own
+    original: str
+    instancer: str
+    matrix: object      # mathutils.Matrix, world space
+    shown: bool         # it has a lightmap (else it only stands in for light and shadow)
+
+
+def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0, copies=False):
     """Bake each receiving object with Cycles into a temporary float image the size of its
     lightmap. Returns {object name: (H, W, 4) float32 array}, row 0 at the bottom (v = 0), like
     Luxel's pages; alpha is 1 where Cycles wrote a texel (a texel centre inside one of the
-    object's UV triangles) and 0 elsewhere, so alpha is the object's coverage mask."""
+    object's UV triangles) and 0 elsewhere, so alpha is the object's coverage mask.
+
+    With ``copies``, every other shown copy too (objects shown through Luxel's modifier,
+    curves and text, copies of one mesh, instances), keyed by the solver's name
+    ("instancer/object" for an instance): the objects an instancer shows are swapped, for
+    the bake, for stand-ins made of their evaluated meshes at their places, whose lightmap
+    UVs carry their offsets (see luxel_page)."""
     scene = context.scene
     targets = receivers(scene, objects)
     if context.mode != 'OBJECT':
@@ -45,14 +69,19 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0):
     selected = [obj for obj in view_layer.objects if obj.select_get()]
     active = view_layer.objects.active
     temporary_materials, temporary_images, slot_changes, added_slots = [], [], [], []
-    preview_changes = []
+    preview_changes, stand_ins, hidden = [], [], []
+    keys = [obj.name for obj in targets]
     results = {}
     try:
         configure_cycles(scene, samples, bounces, seed)
         _hide_luxel_preview(temporary_materials, preview_changes)
-        for obj in targets:
-            width, height = obj.luxel.image.size
-            image = bpy.data.images.new(TEMP_PREFIX + obj.name, width, height, alpha=True,
+        if copies:
+            for key, stand_in in _stand_ins(context, set(keys), stand_ins, hidden):
+                keys.append(key)
+                targets.append(stand_in)
+        for key, obj in zip(keys, targets):
+            width, height = luxel_page(scene, key).size
+            image = bpy.data.images.new(TEMP_PREFIX + key, width, height, alpha=True,
                                         float_buffer=True)
             temporary_images.append(image)
             image.colorspace_settings.name = 'Linear Rec.709'
@@ -67,14 +96,21 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0):
             bpy.ops.object.bake(type='DIFFUSE', pass_filter=PASS_FILTER, uv_layer=UV_MAP,
                                 margin=0, use_clear=True, target='IMAGE_TEXTURES',
                                 use_selected_to_active=False, use_cage=False)
-        for obj, image in zip(targets, temporary_images):
+        for key, image in zip(keys, temporary_images):
             width, height = image.size
             pixels = np.empty(width * height * 4, dtype=np.float32)
             image.pixels.foreach_get(pixels)
-            results[obj.name] = pixels.reshape(height, width, 4)
+            results[key] = pixels.reshape(height, width, 4)
     finally:
         _restore_slots(slot_changes, added_slots)
         _restore_slots(preview_changes, [])
+        for obj in stand_ins:
+            data = obj.data
+            bpy.data.objects.remove(obj)
+            if isinstance(data, bpy.types.Mesh) and data.users == 0:
+                bpy.data.meshes.remove(data)
+        for obj in hidden:
+            obj.hide_render = False
         for material in temporary_materials:
             bpy.data.materials.remove(material)
         for image in temporary_images:
@@ -86,6 +122,79 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0):
         view_layer.objects.active = active
         restore()
     return results
+
+
+def luxel_page(scene, key):
+    """The Luxel page image a shown copy's lightmap is on (key: an object's name, or the
+    solver's "instancer/object")."""
+    instancer = bpy.data.objects[key.split("/")[0]]
+    if key in bpy.data.objects and _in_place(bpy.data.objects[key]):
+        return bpy.data.objects[key].luxel.image
+    page = int(instancer[INSTANCER_OFFSET][2]) - 1
+    return bpy.data.images[image_name(scene, page)]
+
+
+def _stand_ins(context, in_place, made, hidden):
+    """Swap each instancer (an object shown by itself included) that shows a copy a Cycles
+    bake cannot reach in place for stand-ins of everything it shows; returns [(key,
+    stand-in)] for the shown copies. ``made`` and ``hidden`` collect what to remove and
+    unhide, also when this fails half-way."""
+    scene = context.scene
+    depsgraph = context.evaluated_depsgraph_get()
+    found = []
+    for instance in depsgraph.object_instances:
+        original = instance.object.original
+        if original.type not in {'MESH', 'CURVE', 'SURFACE', 'FONT', 'LIGHT'}:
+            continue
+        if original.type in {'CURVE', 'SURFACE', 'FONT'} and not instance.is_instance:
+            continue        # a curve's surface comes as an instance of itself
+        instancer = instance.parent.original if instance.is_instance else original
+        key = original.name if instancer == original else f"{instancer.name}/{original.name}"
+        shown = OBJECT_OFFSET in original and original.luxel.image is not None
+        found.append(_Copy(key, original.name, instancer.name,
+                           instance.matrix_world.copy(), shown))
+    swapped = {copy.instancer for copy in found if copy.shown and copy.key not in in_place}
+    meshes, shown = {}, []
+    for copy in found:
+        if copy.instancer not in swapped:
+            continue
+        original = bpy.data.objects[copy.original]
+        if original.type == 'LIGHT':
+            stand_in = bpy.data.objects.new(TEMP_PREFIX + copy.key, original.data)
+        else:
+            if copy.original not in meshes:
+                meshes[copy.original] = bpy.data.meshes.new_from_object(
+                    original.evaluated_get(depsgraph), preserve_all_data_layers=True,
+                    depsgraph=depsgraph)
+            mesh = meshes[copy.original].copy()
+            if copy.shown:
+                _move_uvs(mesh, original, bpy.data.objects[copy.instancer])
+            stand_in = bpy.data.objects.new(TEMP_PREFIX + copy.key, mesh)
+        scene.collection.objects.link(stand_in)
+        stand_in.matrix_world = copy.matrix
+        made.append(stand_in)
+        if copy.shown and original.type != 'LIGHT':
+            shown.append((copy.key, stand_in))
+    for mesh in meshes.values():
+        bpy.data.meshes.remove(mesh)
+    for name in swapped:
+        instancer = bpy.data.objects[name]
+        if not instancer.hide_render:
+            instancer.hide_render = True
+            hidden.append(instancer)
+    return shown
+
+
+def _move_uvs(mesh, obj, instancer):
+    """A shown copy's lightmap UVs plus its offsets: its place on the page."""
+    offset = np.array(obj[OBJECT_OFFSET][:2]) + np.array(instancer[INSTANCER_OFFSET][:2])
+    uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    mesh.uv_layers[UV_MAP].uv.foreach_get("vector", uv)
+    # A new layer: a copied mesh shares its arrays with the mesh it was copied from, and
+    # writing into them moved every copy's UVs.
+    mesh.uv_layers.remove(mesh.uv_layers[UV_MAP])
+    mesh.uv_layers.new(name=UV_MAP, do_init=False).uv.foreach_set(
+        "vector", (uv.reshape(-1, 2) + offset).ravel())
 
 
 # ------------------------------------------------------------------------- per-object means
@@ -107,7 +216,10 @@ class ObjectMean:
 
 def luxel_lightmap(obj):
     """The object's Luxel page as an (H, W, 4) float32 array, row 0 at the bottom."""
-    image = obj.luxel.image
+    return _pixels(obj.luxel.image)
+
+
+def _pixels(image):
     width, height = image.size
     pixels = np.empty(width * height * 4, dtype=np.float32)
     image.pixels.foreach_get(pixels)
@@ -121,7 +233,7 @@ def object_means(reference, luxel_pages=None):
     means = {}
     for name, cycles in reference.items():
         luxel = (luxel_pages[name] if luxel_pages is not None
-                 else luxel_lightmap(bpy.data.objects[name]))
+                 else _pixels(luxel_page(bpy.context.scene, name)))
         if luxel.shape != cycles.shape:
             raise ValueError(f"'{name}': Luxel's lightmap is {luxel.shape[:2]}, the Cycles bake "
                              f"{cycles.shape[:2]}")

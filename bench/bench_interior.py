@@ -1,9 +1,8 @@
 """The realistic interior (sample_blends/interior.blend, built the way users model one): the
 share of the rendered surface that gets a lightmap, the bake's time, texels and shots, and
-each mesh object's mean against a Cycles bake into the same lightmap UVs. Objects shown
-through Luxel's modifier, and copies of one mesh (whose UV map holds their shared layout,
-placed per copy by the material), have no Cycles bake here yet: they count in the area share
-only.
+each shown copy's mean against a Cycles bake into the same lightmap UVs (objects shown
+through Luxel's modifier, curves, text and instances through stand-ins of their evaluated
+meshes: addon/reference.py, copies=True).
 
     python bench/bench_interior.py [--density D] [--threshold T] [--samples N] [--json PATH]
 """
@@ -50,13 +49,8 @@ def main():
     seconds = time.perf_counter() - started
     stats = scene.luxel.stats
     started = time.perf_counter()
-    # A Cycles bake writes through the mesh's own UV map: objects with a layout of their own
-    # and their mesh's corners (no modifier changing them).
-    layouts = [r.layout for r in export.receivers]
-    compared = [r.object_name for r in export.receivers
-                if r.uv_source == 'MESH' and layouts.count(r.layout) == 1]
     means = reference.object_means(reference.cycles_reference(bpy.context, args.samples, 32,
-                                                              objects=compared))
+                                                              copies=True))
     cycles_seconds = time.perf_counter() - started
     luminance = np.array([0.2126, 0.7152, 0.0722])
     rows = []

@@ -780,7 +780,7 @@ def build_interior():
     verts, faces = box((-sx, -sy, 0.0), (sx, sy, h), skip=("-z", "+z"), inward=True)
     walls = MeshBuilder().add((verts, faces)).build(scene, "walls", [wall])
     solidify = walls.modifiers.new("Solidify", "SOLIDIFY")
-    solidify.thickness, solidify.offset = 0.2, 1.0
+    solidify.thickness, solidify.offset = 0.2, -1.0   # outwards, away from the normals
     cutter = single(box((1.2, -sy - 0.5, 1.0), (2.4, -sy + 0.5, 2.2)), scene, "window_cut", wall)
     cutter.hide_render, cutter.display_type = True, "WIRE"
     boolean = walls.modifiers.new("Window", "BOOLEAN")

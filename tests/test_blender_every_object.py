@@ -37,7 +37,7 @@ def modelled_room():
     vase.modifiers.new("Mirror", 'MIRROR').use_axis = (True, False, False)
     chair = blender_scenes.block(scene, "Chair", (1.5, 0.0, 0.25), (0.4, 0.4, 0.5), grey)
     twin = chair.copy()                 # a linked duplicate: the same mesh
-    twin.name, twin.location = "ChairTwin", (2.2, 0.0, 0.25)
+    twin.name, twin.location = "ChairTwin", (0.7, 0.0, 0.0)   # its mesh sits at x = 1.5
     scene.collection.objects.link(twin)
     stool_set = bpy.data.collections.new("StoolSet")
     scene.collection.children.link(stool_set)
@@ -231,3 +231,31 @@ def mesh_state_of_mesh(mesh):
         attribute.data.foreach_get(field, array)
         values[attribute.name] = array
     return [a.name for a in mesh.attributes], values
+
+
+def test_every_shown_copy_matches_a_cycles_bake_of_its_surface():
+    """Each shown copy (modifier stacks, linked duplicates, instances, the curve and the
+    text) against a Cycles DIFFUSE bake of stand-ins made of the evaluated meshes, their
+    lightmap UVs placed by their offsets (addon/reference.py, copies=True)."""
+    from test_blender_parity import print_table
+    scene = modelled_room()
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    reference = importlib.import_module(blender_session.MODULE + ".addon.reference")
+    before = {obj.name: (obj.hide_render, tuple(obj.matrix_world.translation))
+              for obj in bpy.data.objects}
+    meshes = set(bpy.data.meshes.keys())
+    means = reference.object_means(reference.cycles_reference(bpy.context, samples=128,
+                                                              bounces=16, copies=True))
+    print_table(means)
+    assert {obj.name: (obj.hide_render, tuple(obj.matrix_world.translation))
+            for obj in bpy.data.objects} == before
+    assert set(bpy.data.meshes.keys()) == meshes
+    expected = {"Room", "Sofa", "Shelf", "Vase", "Chair", "ChairTwin", "StoolNearLamp/Stool",
+                "StoolFar/Stool", "CornerInstance/Stool", "Cable", "Sign"}
+    assert set(means) == expected
+    assert all(m.texels >= 20 for m in means.values()), {m.name: m.texels for m in means.values()}
+    brightest = np.max([m.cycles for m in means.values()], axis=0)
+    failures = [f"{m.name}: ratio {np.round(m.ratio, 3)}" for m in means.values()
+                if np.any(np.abs(m.luxel - m.cycles)
+                          > np.maximum(0.05 * m.cycles, 0.01 * brightest))]
+    assert not failures, failures
