@@ -362,7 +362,7 @@ def _write_snapshot(obj, receiver, triangle_uv, back_uv, undo):
         undo.append(lambda: bpy.data.objects.remove(snapshot))
         modifier = obj.modifiers.new(MODIFIER, 'NODES')
         undo.append(lambda: obj.modifiers.remove(obj.modifiers[MODIFIER]))
-        modifier.node_group = _node_group()
+        modifier.node_group = _node_group(undo)
         modifier.show_in_editmode = False
         modifier[_socket(modifier, "Snapshot")] = snapshot
     else:
@@ -397,7 +397,7 @@ def _socket(modifier, name):
     return modifier.node_group.interface.items_tree[name].identifier
 
 
-def _node_group():
+def _node_group(undo):
     """Luxel's geometry nodes: the snapshot's UV of each corner, by index, stored as the
     lightmap UV map (and the back faces' map, where the modifier's Back Faces is on); far
     outside every page when the corners no longer match."""
@@ -405,6 +405,7 @@ def _node_group():
     if group is not None:
         return group
     group = bpy.data.node_groups.new(NODE_GROUP, 'GeometryNodeTree')
+    undo.append(lambda: bpy.data.node_groups.remove(group))
     interface = group.interface
     interface.new_socket("Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
     interface.new_socket("Snapshot", in_out='INPUT', socket_type='NodeSocketObject')

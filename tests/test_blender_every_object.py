@@ -7,12 +7,14 @@ meshes and modifier stacks are unchanged apart from Luxel's additions."""
 import importlib
 
 import numpy as np
+import pytest
 
 import blender_scenes
 import blender_session
 
 bpy = blender_session.blender()
 writeback = importlib.import_module(blender_session.MODULE + ".addon.writeback")
+addon = blender_session.addon().addon
 
 
 def modelled_room():
@@ -190,25 +192,25 @@ def test_a_changed_stack_makes_the_lightmap_stale_not_garbage():
     assert (evaluated_lightmap(sofa) < -1.0).all()
 
 
-def test_remove_lightmaps_leaves_the_file_as_before_the_first_bake():
-    """Attribute by attribute: meshes (positions, corners, every UV map and attribute),
-    modifier stacks, node trees, custom properties, and the datablocks of the file."""
-    modelled_room()
-    def state():
-        meshes = {m.name: (mesh_state_of_mesh(m)) for m in bpy.data.meshes}
-        objects = {o.name: ([(m.name, m.type) for m in o.modifiers], sorted(o.keys()))
-                   for o in bpy.data.objects}
-        trees = {m.name: sorted((n.name, n.bl_idname) for n in m.node_tree.nodes)
-                 for m in bpy.data.materials if m.node_tree}
-        blocks = {kind: sorted(i.name for i in getattr(bpy.data, kind))
-                  for kind in ("objects", "meshes", "images", "node_groups", "materials")}
-        return meshes, objects, trees, blocks
-    before = state()
-    assert bpy.ops.luxel.bake() == {'FINISHED'}
-    bpy.context.scene.luxel.show_baked = True
-    assert state() != before
-    assert bpy.ops.luxel.remove_lightmaps() == {'FINISHED'}
-    after = state()
+def file_state():
+    """Meshes (every attribute's values), modifier stacks, custom properties and Luxel's
+    records of the objects, node trees, and the file's datablocks."""
+    def plain(value):
+        return value.to_list() if hasattr(value, "to_list") else value
+    meshes = {m.name: mesh_state_of_mesh(m) for m in bpy.data.meshes}
+    objects = {o.name: ([(m.name, m.type) for m in o.modifiers],
+                        {key: plain(o[key]) for key in o.keys()},
+                        o.luxel.uv_map, o.luxel.image.name if o.luxel.image else None,
+                        o.hide_render)
+               for o in bpy.data.objects}
+    trees = {m.name: sorted((n.name, n.bl_idname) for n in m.node_tree.nodes)
+             for m in bpy.data.materials if m.node_tree}
+    blocks = {kind: sorted(i.name for i in getattr(bpy.data, kind))
+              for kind in ("objects", "meshes", "images", "node_groups", "materials")}
+    return meshes, objects, trees, blocks
+
+
+def assert_same_file(after, before):
     assert after[1] == before[1] and after[2] == before[2] and after[3] == before[3]
     assert after[0].keys() == before[0].keys()
     for name, (attributes, layers) in before[0].items():
@@ -216,6 +218,49 @@ def test_remove_lightmaps_leaves_the_file_as_before_the_first_bake():
         assert layers.keys() == after[0][name][1].keys(), name
         for key in layers:
             np.testing.assert_array_equal(layers[key], after[0][name][1][key])
+
+
+def test_remove_lightmaps_leaves_the_file_as_before_the_first_bake():
+    """Attribute by attribute: meshes (positions, corners, every UV map and attribute),
+    modifier stacks, node trees, custom properties, and the datablocks of the file."""
+    modelled_room()
+    before = file_state()
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    bpy.context.scene.luxel.show_baked = True
+    assert file_state() != before
+    assert bpy.ops.luxel.remove_lightmaps() == {'FINISHED'}
+    after = file_state()
+    assert_same_file(after, before)
+
+
+@pytest.mark.parametrize("rebake", (False, True), ids=("first bake", "re-bake"))
+@pytest.mark.parametrize("how", ("cancel", "failure half-way"))
+def test_cancel_or_failure_leaves_the_file_as_it_was(monkeypatch, how, rebake):
+    """On the room of modifier stacks, linked duplicates, instances, a curve and a text: Esc
+    mid-bake, or a failure after some of the modifier snapshots are written."""
+    scene = modelled_room()
+    scene.luxel.threshold = 0.05
+    if rebake:
+        assert bpy.ops.luxel.bake() == {'FINISHED'}
+        bpy.data.objects["StoolFar"].location.x -= 0.3
+    before = file_state()
+    if how == "cancel":
+        job = addon.bake.BakeJob(bpy.context)
+        job.step(0.3)
+        job.release()           # what Esc does in the modal operator
+    else:
+        original, calls = writeback._write_snapshot, []
+
+        def write_then_fail(*args):
+            original(*args)
+            calls.append(args[0].name)
+            if len(calls) == 3:
+                raise MemoryError("simulated")
+        monkeypatch.setattr(writeback, "_write_snapshot", write_then_fail)
+        with pytest.raises(RuntimeError, match="MemoryError: simulated"):
+            bpy.ops.luxel.bake()
+        assert len(calls) == 3
+    assert_same_file(file_state(), before)
 
 
 def mesh_state_of_mesh(mesh):
