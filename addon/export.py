@@ -156,6 +156,8 @@ class _Exporter:
         self.emission_of_material = {}
         self.shown_copies = set()
         self.inward = []        # closed meshes whose normals point inwards (_Inward)
+        self.faceless = []      # meshes without faces: reported unless they instance
+        self.instancers = set()
         self.hidden_by_collection = {obj.name for collection in bpy.data.collections
                                      if collection.hide_render
                                      for obj in collection.all_objects}
@@ -172,6 +174,8 @@ class _Exporter:
             return
         # A curve's or a text's evaluated mesh is an instance of the object itself.
         instancer = instance.parent.original if instance.is_instance else original
+        if instance.is_instance:
+            self.instancers.add(instancer.name)
         if instancer.hide_render or instancer.name in self.hidden_by_collection:
             return
         matrix = np.array(instance.matrix_world, dtype=np.float64)
@@ -182,9 +186,12 @@ class _Exporter:
             name = original.name
             if instancer != original:
                 name = f"{instancer.name}/{original.name}"
-            self.add_mesh_object(obj, name, matrix, instancer)
+            # Geometry nodes' instances come as instances of the object that makes them.
+            made_by_nodes = instance.is_instance and original.type == 'MESH' and (
+                instancer == original)
+            self.add_mesh_object(obj, name, matrix, instancer, made_by_nodes)
 
-    def add_mesh_object(self, obj, name, matrix, instancer):
+    def add_mesh_object(self, obj, name, matrix, instancer, made_by_nodes=False):
         original = obj.original
         try:
             mesh = obj.to_mesh()
@@ -193,14 +200,13 @@ class _Exporter:
         try:
             if mesh is None or not len(mesh.polygons):
                 if original.type == 'MESH':
-                    self.warn(f"'{name}' is a mesh without faces: it renders nothing and was "
-                              "skipped (add faces, or hide it from render)")
+                    self.faceless.append(name)
                 return
-            self._add_mesh(obj, mesh, name, matrix, instancer)
+            self._add_mesh(obj, mesh, name, matrix, instancer, made_by_nodes)
         finally:
             obj.to_mesh_clear()
 
-    def _placement(self, obj, mesh, name, instancer, receive_back):
+    def _placement(self, obj, mesh, name, instancer, receive_back, made_by_nodes):
         """The layout, slot and block keys of one shown copy of ``obj`` (see
         Collector.add_object), its UV source, and whether it shows a lightmap."""
         original = obj.original
@@ -224,6 +230,13 @@ class _Exporter:
                       "no lightmap, since a metaball has no UV map (Object > Convert > Mesh "
                       "on a copy to bake one)")
             shows = False
+        elif made_by_nodes:
+            self.warn(f"'{name}' shows instances made by geometry nodes: each reflects its "
+                      "own light, but Blender's materials cannot tell them apart, so none "
+                      "shows a lightmap; add a Realize Instances node at the end of its node "
+                      "tree to bake each copy")
+            slot = block = None
+            shows = False
         elif (slot, block) in self.shown_copies:
             # Blender's materials see an instance's object and its top instancer only.
             self.warn(f"'{name}' is shown more than once by '{instancer.name}' (vertex, face "
@@ -245,7 +258,7 @@ class _Exporter:
             self.shown_copies.add((slot, block))
         return layout, slot, block, uv_source, shows
 
-    def _add_mesh(self, obj, mesh, name, matrix, instancer):
+    def _add_mesh(self, obj, mesh, name, matrix, instancer, made_by_nodes):
         original = obj.original
         texel_scale, back_faces = original.luxel.resolution_scale, original.luxel.back_faces
         triangles_count = len(mesh.loop_triangles)
@@ -312,8 +325,8 @@ class _Exporter:
         if original.luxel.uv_source == 'MAP':
             lightmap_uv = self._own_lightmap_uv(mesh, original.luxel.source_uv_map, name,
                                                 loops, polygon)
-        layout, slot, block, uv_source, shows = self._placement(obj, mesh, name, instancer,
-                                                                receive_back)
+        layout, slot, block, uv_source, shows = self._placement(
+            obj, mesh, name, instancer, receive_back, made_by_nodes)
         object_index = self.collector.add_object(name, texel_scale, layout, slot, block)
         # Every surface receives in the solver, so that it reflects; only those whose object
         # asks for one show a lightmap.
@@ -592,6 +605,11 @@ class _Exporter:
                       "Outside) so that every renderer agrees")
 
     def finish(self):
+        # An instancer's own points or empty geometry do not render.
+        for name in self.faceless:
+            if name not in self.instancers:
+                self.warn(f"'{name}' is a mesh without faces: it renders nothing and was "
+                          "skipped (add faces, or hide it from render)")
         c = self.collector
         if not c.triangles:
             raise SceneError("the scene has no visible mesh to bake: add a mesh, or make one "

@@ -304,3 +304,69 @@ def test_every_shown_copy_matches_a_cycles_bake_of_its_surface():
                 if np.any(np.abs(m.luxel - m.cycles)
                           > np.maximum(0.05 * m.cycles, 0.01 * brightest))]
     assert not failures, failures
+
+
+def scatter_scene(realize):
+    """The stage with a block scattered by a geometry-nodes Instance on Points (realized or
+    not) and a pebble instanced on three vertices."""
+    scene = blender_scenes.point_scene()
+    block = bpy.data.objects["Block"]
+    pebble = blender_scenes.block(scene, "Pebble", (0, 0, 0.05), (0.1, 0.1, 0.1),
+                                  bpy.data.materials["Block"])
+    points = bpy.data.meshes.new("Points")
+    points.from_pydata([(-1, -1, 0), (-1.3, -1, 0), (-1, -1.3, 0)], [], [])
+    holder = bpy.data.objects.new("Scatter", points)
+    scene.collection.objects.link(holder)
+    pebble.parent, holder.instance_type = holder, 'VERTS'
+    spots = bpy.data.meshes.new("Spots")
+    spots.from_pydata([(1.2, -1.2, 0), (1.5, -0.4, 0)], [], [])
+    nodes_object = bpy.data.objects.new("NodeScatter", spots)
+    scene.collection.objects.link(nodes_object)
+    tree = bpy.data.node_groups.new("Scatter Blocks", 'GeometryNodeTree')
+    tree.interface.new_socket("Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
+    tree.interface.new_socket("Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
+    inputs, outputs = tree.nodes.new('NodeGroupInput'), tree.nodes.new('NodeGroupOutput')
+    on_points, info = tree.nodes.new('GeometryNodeInstanceOnPoints'), tree.nodes.new(
+        'GeometryNodeObjectInfo')
+    info.inputs["Object"].default_value = block
+    scale = tree.nodes.new('FunctionNodeInputVector')
+    scale.vector = (0.4, 0.4, 0.4)
+    tree.links.new(inputs.outputs[0], on_points.inputs["Points"])
+    tree.links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
+    tree.links.new(scale.outputs[0], on_points.inputs["Scale"])
+    result = on_points.outputs[0]
+    if realize:
+        realized = tree.nodes.new('GeometryNodeRealizeInstances')
+        tree.links.new(result, realized.inputs[0])
+        result = realized.outputs[0]
+    tree.links.new(result, outputs.inputs[0])
+    nodes_object.modifiers.new("Scatter", 'NODES').node_group = tree
+    return scene
+
+
+def test_node_and_vertex_instances_warn_what_to_do_and_realized_ones_bake():
+    scatter_scene(realize=False)
+    job = addon.bake.BakeJob(bpy.context)
+    while not job.step(1.0):
+        pass
+    job.finish()
+    assert not any("without faces" in w for w in job.warnings), job.warnings
+    assert any(w.startswith("'NodeScatter' shows instances made by geometry nodes") and
+               "Realize Instances" in w for w in job.warnings), job.warnings
+    assert any(w.startswith("'Scatter/Pebble' is shown more than once by 'Scatter'")
+               for w in job.warnings), job.warnings
+    names = job.export.scene.object_names
+    assert names.count("NodeScatter") == 2 and names.count("Scatter/Pebble") == 3
+    assert "NodeScatter" not in {r.object_name for r in job.export.receivers}
+
+    scatter_scene(realize=True)
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    nodes_object = bpy.data.objects["NodeScatter"]
+    uv = evaluated_lightmap(nodes_object)
+    assert uv is not None and (uv > 0.0).all() and (uv < 1.0).all()
+    reference = importlib.import_module(blender_session.MODULE + ".addon.reference")
+    means = reference.object_means(reference.cycles_reference(
+        bpy.context, samples=128, bounces=16, objects=[], copies=True))
+    scattered = means["NodeScatter"]
+    assert scattered.texels >= 20
+    assert np.all(np.abs(scattered.ratio - 1.0) < 0.05), scattered.ratio
