@@ -228,7 +228,7 @@ def snapshot_of(obj):
     modifier = obj.modifiers.get(MODIFIER)
     if modifier is None or modifier.type != 'NODES':
         return None
-    return modifier.get(_socket(modifier, "Snapshot"))
+    return _input(modifier, "Snapshot")
 
 
 def _page_image(scene, index, page, directory, undo):
@@ -364,16 +364,15 @@ def _write_snapshot(obj, receiver, triangle_uv, back_uv, undo):
         undo.append(lambda: obj.modifiers.remove(obj.modifiers[MODIFIER]))
         modifier.node_group = _node_group(undo)
         modifier.show_in_editmode = False
-        modifier[_socket(modifier, "Snapshot")] = snapshot
+        _set_input(modifier, "Snapshot", snapshot)
     else:
         before = snapshot.data
         snapshot.data = mesh
         undo.append(lambda: setattr(snapshot, "data", before))
     modifier = obj.modifiers[MODIFIER]
-    back_faces = _socket(modifier, "Back Faces")
-    shown_before = bool(modifier.get(back_faces, False))
-    modifier[back_faces] = back_uv is not None
-    undo.append(lambda: modifier.__setitem__(back_faces, shown_before))
+    shown_before = bool(_input(modifier, "Back Faces"))
+    _set_input(modifier, "Back Faces", back_uv is not None)
+    undo.append(lambda: _set_input(modifier, "Back Faces", shown_before))
     # The modifier comes last, after any the user added since.
     if obj.modifiers[-1].name != MODIFIER:
         index = list(obj.modifiers).index(obj.modifiers[MODIFIER])
@@ -392,9 +391,26 @@ def _remove_snapshot(obj):
             bpy.data.meshes.remove(mesh)
 
 
-def _socket(modifier, name):
-    """The key of the modifier's input ``name`` (an ID property of the modifier)."""
-    return modifier.node_group.interface.items_tree[name].identifier
+def _input(modifier, name):
+    """The value of the geometry-nodes modifier's input ``name`` (None where unset)."""
+    key = modifier.node_group.interface.items_tree[name].identifier
+    if _has_input_properties(modifier):
+        return getattr(modifier.properties.inputs, key).value
+    return modifier.get(key)
+
+
+def _set_input(modifier, name, value):
+    key = modifier.node_group.interface.items_tree[name].identifier
+    if _has_input_properties(modifier):
+        getattr(modifier.properties.inputs, key).value = value
+    else:
+        modifier[key] = value
+
+
+def _has_input_properties(modifier):
+    """Blender 5.2 keeps a modifier's inputs in modifier.properties.inputs; before, they were
+    ID properties of the modifier, keyed by the socket's identifier."""
+    return hasattr(getattr(modifier, "properties", None), "inputs")
 
 
 def _node_group(undo):
@@ -423,8 +439,11 @@ def _node_group(undo):
     links.new(info.outputs["Geometry"], points.inputs[0])
     same = nodes.new('FunctionNodeCompare')
     same.data_type, same.operation = 'INT', 'EQUAL'
-    links.new(corners.outputs["Face Corner Count"], same.inputs[2])
-    links.new(points.outputs["Point Count"], same.inputs[3])
+    # The integer sockets: by name, as Blender 5.2 keeps only the data type's sockets.
+    a, b = (next(socket for socket in same.inputs if socket.enabled and socket.name == name)
+            for name in ("A", "B"))
+    links.new(corners.outputs["Face Corner Count"], a)
+    links.new(points.outputs["Point Count"], b)
     index = nodes.new('GeometryNodeInputIndex').outputs[0]
     geometry = inputs.outputs["Geometry"]
     for attribute, uv_map in ((SNAPSHOT_ATTRIBUTE, UV_MAP),

@@ -222,7 +222,7 @@ def _given_layout(scene, members, units, density, max_size, padding):
     back = (np.zeros(len(members), bool) if scene.back_of is None
             else scene.back_of[members] >= 0)
     front = uv[~back]
-    uv_area = 0.5 * np.abs(np.cross(front[:, 1] - front[:, 0], front[:, 2] - front[:, 0])).sum()
+    uv_area = 0.5 * np.abs(_cross2(front[:, 1] - front[:, 0], front[:, 2] - front[:, 0])).sum()
     if uv_area <= 0.0:
         raise SettingsError(f"object '{name}': its lightmap UV map has no area (every face "
                             "collapsed to a line or a point): unwrap it, or let Luxel chart it")
@@ -423,7 +423,7 @@ def overlapping_faces(uv, face, resolution=OVERLAP_RESOLUTION):
     extent = np.maximum(high - low + 1, 0)
     counts = extent.prod(axis=1)
     edges = np.roll(points, -1, axis=1) - points          # edge i from corner i to i + 1
-    doubled_area = np.cross(edges[:, 0], -edges[:, 2])
+    doubled_area = _cross2(edges[:, 0], -edges[:, 2])
     orientation = np.sign(doubled_area)
     lengths = np.maximum(np.linalg.norm(edges, axis=2), 1e-30)
     covered = []
@@ -442,7 +442,7 @@ def overlapping_faces(uv, face, resolution=OVERLAP_RESOLUTION):
         centre = np.stack([low[owner, 0] + local % width, low[owner, 1] + local // width], 1)
         inside = np.ones(len(owner), bool)
         for corner in range(3):
-            signed = np.cross(edges[owner, corner], centre - points[owner, corner])
+            signed = _cross2(edges[owner, corner], centre - points[owner, corner])
             inside &= signed * orientation[owner] / lengths[owner, corner] > OVERLAP_MARGIN
         centre = centre[inside]
         covered.append(np.stack([centre[:, 1] * resolution + centre[:, 0],
@@ -453,6 +453,11 @@ def overlapping_faces(uv, face, resolution=OVERLAP_RESOLUTION):
     _, faces_in_cell = np.unique(pairs[:, 0], return_counts=True)
     shared = np.repeat(faces_in_cell > 1, faces_in_cell)
     return np.isin(face, pairs[shared, 1])
+
+
+def _cross2(a, b):
+    """The z of the cross product of 2D vectors (numpy 2 deprecates np.cross on them)."""
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
 def tight_packing(atlas, align=1):

@@ -35,6 +35,8 @@ AREA_SHAPES = {             # shape: (size, size_y)
 # --------------------------------------------------------------------------------- pieces
 def material(name, colour, specular=0.0, emission=None, strength=0.0, roughness=1.0):
     mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:           # Blender before 5.0 makes it on use_nodes
+        mat.use_nodes = True
     principled = mat.node_tree.nodes["Principled BSDF"]
     principled.inputs["Base Color"].default_value = (*colour, 1.0)
     principled.inputs["Roughness"].default_value = roughness

@@ -30,6 +30,8 @@ def empty_file():
     scene.render.engine = 'CYCLES'
     world = bpy.data.worlds.new("World")
     world.color = (0.0, 0.0, 0.0)
+    if world.node_tree is None:         # Blender before 5.0 makes it on use_nodes
+        world.use_nodes = True
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
     scene.world = world
     return scene

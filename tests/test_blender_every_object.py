@@ -199,7 +199,9 @@ def file_state():
         return value.to_list() if hasattr(value, "to_list") else value
     meshes = {m.name: mesh_state_of_mesh(m) for m in bpy.data.meshes}
     objects = {o.name: ([(m.name, m.type) for m in o.modifiers],
-                        {key: plain(o[key]) for key in o.keys()},
+                        # Custom properties; Blender before 5.0 lists the storage of
+                        # the registered obj.luxel settings among them too.
+                        {key: plain(o[key]) for key in o.keys() if key != "luxel"},
                         o.luxel.uv_map, o.luxel.image.name if o.luxel.image else None,
                         o.hide_render)
                for o in bpy.data.objects}

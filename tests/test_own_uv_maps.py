@@ -60,7 +60,9 @@ def test_own_map_is_one_scale_and_offset_at_the_density_beside_luxels_charts():
     front = rows & (back_scene.back_of[atlas.triangles] < 0)
     back = rows & (back_scene.back_of[atlas.triangles] >= 0)
     uv = back_scene.lightmap_uv[atlas.triangles]
-    area = lambda c: 0.5 * np.abs(np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])).sum()
+    def area(c):
+        edge, other = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
+        return 0.5 * np.abs(edge[:, 0] * other[:, 1] - edge[:, 1] * other[:, 0]).sum()
     # Texel density: the box's surface area times density squared, over its UV area.
     per_uv = density * np.sqrt(back_scene.triangle_area[atlas.triangles[front]].sum()
                                / area(uv[front]))
