@@ -189,12 +189,10 @@ def _move_uvs(mesh, obj, instancer):
     """A shown copy's lightmap UVs plus its offsets: its place on the page."""
     offset = np.array(obj[OBJECT_OFFSET][:2]) + np.array(instancer[INSTANCER_OFFSET][:2])
     uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
-    mesh.uv_layers[UV_MAP].uv.foreach_get("vector", uv)
-    # A new layer: a copied mesh shares its arrays with the mesh it was copied from, and
-    # writing into them moved every copy's UVs.
-    mesh.uv_layers.remove(mesh.uv_layers[UV_MAP])
-    mesh.uv_layers.new(name=UV_MAP, do_init=False).uv.foreach_set(
-        "vector", (uv.reshape(-1, 2) + offset).ravel())
+    attribute = mesh.attributes[UV_MAP]
+    attribute.data.foreach_get("vector", uv)
+    # Through the attribute (see writeback._set_uvs): copies of one mesh share its arrays.
+    attribute.data.foreach_set("vector", (uv.reshape(-1, 2) + offset).ravel())
 
 
 # ------------------------------------------------------------------------- per-object means

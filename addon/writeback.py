@@ -328,7 +328,10 @@ def _write_uv_map(mesh, name, loops, triangle_uv, undo):
 
 
 def _set_uvs(mesh, name, values):
-    mesh.uv_layers[name].uv.foreach_set("vector", values)
+    # Through the attribute, not uv_layers[name].uv: before Blender 5.2 that writes into the
+    # array the mesh may share with its copies and its evaluated mesh (seen changing both),
+    # where the attribute API first makes the mesh's own.
+    mesh.attributes[name].data.foreach_set("vector", values)
     mesh.update()
 
 

@@ -168,6 +168,26 @@ def test_rebake_replaces_results_and_leaves_no_orphans():
     assert all(image.users > 0 for image in bpy.data.images)
 
 
+def test_rebake_leaves_a_copy_of_a_baked_mesh_alone():
+    """A copy the user keeps of a baked mesh (an asset, a backup) shares its arrays with it
+    until either is written: a re-bake must write the baked mesh's own UVs, not the copy's."""
+    scene = room_scene()
+    bpy.ops.luxel.bake()
+    room = scene.objects["room"]
+    kept = room.data.copy()
+    kept.use_fake_user = True
+
+    def uvs(mesh):
+        values = np.empty(len(mesh.loops) * 2)
+        mesh.uv_layers["LuxelLightmap"].uv.foreach_get("vector", values)
+        return values
+    before = uvs(kept)
+    scene.luxel.texel_density *= 1.5            # the re-bake lays the room out anew
+    bpy.ops.luxel.bake()
+    assert not np.array_equal(uvs(room.data), before)
+    np.testing.assert_array_equal(uvs(kept), before)
+
+
 def test_point_light_on_the_floor_matches_cos_over_r_squared():
     """Dark walls (rho 0.1): right under the lamp the texel holds rho I cos / (pi d^2) plus a
     bounce of about rho^2 P / (pi A (1 - rho)) = 1.5 % of the room's light, 13 % of that."""
