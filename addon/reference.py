@@ -35,8 +35,8 @@ def _in_place(obj):
     if obj.type != 'MESH' or not obj.luxel.uv_map or obj.luxel.image is None:
         return False
     offsets = [obj.get(key) for key in (OBJECT_OFFSET, INSTANCER_OFFSET)]
-    return (snapshot_of(obj) is None and obj.data.users == 1 and obj.luxel.uv_map in
-            obj.data.uv_layers and all(o is not None and not any(o[:2]) for o in offsets))
+    return (snapshot_of(obj) is None and obj.data.users == 1
+            and all(o is not None and not any(o[:2]) for o in offsets))
 
 
 @dataclass
