@@ -189,10 +189,14 @@ def _move_uvs(mesh, obj, instancer):
     """A shown copy's lightmap UVs plus its offsets: its place on the page."""
     offset = np.array(obj[OBJECT_OFFSET][:2]) + np.array(instancer[INSTANCER_OFFSET][:2])
     uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
-    attribute = mesh.attributes[UV_MAP]
-    attribute.data.foreach_get("vector", uv)
-    # Through the attribute (see writeback._set_uvs): copies of one mesh share its arrays.
-    attribute.data.foreach_set("vector", (uv.reshape(-1, 2) + offset).ravel())
+    mesh.uv_layers[UV_MAP].uv.foreach_get("vector", uv)
+    # A new layer, the mesh's active one: copies of one mesh share its arrays (see
+    # writeback._set_uvs), and Blender 5.2's bake wants an active UV map, which the
+    # attribute a modifier stored is not.
+    mesh.uv_layers.remove(mesh.uv_layers[UV_MAP])
+    layer = mesh.uv_layers.new(name=UV_MAP, do_init=False)
+    layer.uv.foreach_set("vector", (uv.reshape(-1, 2) + offset).ravel())
+    mesh.uv_layers.active = layer
 
 
 # ------------------------------------------------------------------------- per-object means
