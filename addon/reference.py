@@ -127,9 +127,11 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0, cop
 def luxel_page(scene, key):
     """The Luxel page image a shown copy's lightmap is on (key: an object's name, or the
     solver's "instancer/object")."""
-    instancer = bpy.data.objects[key.split("/")[0]]
-    if key in bpy.data.objects and _in_place(bpy.data.objects[key]):
-        return bpy.data.objects[key].luxel.image
+    obj = bpy.data.objects.get(key)
+    if obj is not None and _in_place(obj):
+        return obj.luxel.image
+    # An object's own name first: names may hold "/" too.
+    instancer = obj if obj is not None else bpy.data.objects[key.rsplit("/", 1)[0]]
     page = int(instancer[INSTANCER_OFFSET][2]) - 1
     return bpy.data.images[image_name(scene, page)]
 
