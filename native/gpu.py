@@ -171,6 +171,22 @@ class GLObjects:
     def framebuffer(self, color_attachments, depth_attachment=None):
         return self.keep(self.ctx.framebuffer(color_attachments, depth_attachment))
 
+    @contextmanager
+    def temporary_framebuffer(self, color_attachments, *, then, color_mask=None):
+        """A framebuffer bound for the block, writing under ``color_mask`` (moderngl applies a
+        mask when it binds), and released after it, with ``then`` bound in its place (moderngl
+        binds the last used framebuffer again when it makes one: it must not be a released
+        one)."""
+        framebuffer = self.framebuffer(color_attachments)
+        if color_mask is not None:
+            framebuffer.color_mask = color_mask
+        framebuffer.use()
+        try:
+            yield framebuffer
+        finally:
+            then.use()
+            self.release_now(framebuffer)
+
     def depth_texture(self, size):
         return self.keep(self.ctx.depth_texture(size))
 

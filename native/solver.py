@@ -29,9 +29,10 @@ from .thin_gaps import (area, band_cells, chord_lengths, clipped, clipped_segmen
 # Per texel (see _allocate_page): position + area, irradiance, unshot radiance + texel size
 # (RGBA32F, 16 B each: sums over thousands of shots), albedo + surface number (RGBA16, 8 B:
 # 16-bit fixed point holds 0.99 within 8e-6, where half floats' 0.99023 put 2.4 % more light
-# in a closed room of that albedo), the octahedral normal (RG16, 4 B) and the subdivision
-# level (R8, 1 B). The rasterization depth (4 B) lives only until the irradiance is made.
-BYTES_PER_TEXEL = 3 * 16 + 8 + 4 + 1
+# in a closed room of that albedo), the octahedral normal, its spread and spread axis (RGBA16,
+# 8 B) and the subdivision level (R8, 1 B). The rasterization depth (4 B) lives only until the
+# irradiance is made.
+BYTES_PER_TEXEL = 3 * 16 + 8 + 8 + 1
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
                  ("in_albedo", 3), ("in_emission", 3), ("in_receive", 1))
 PHASES = ("preprocess", "selection", "visibility", "subdivision", "receivers", "postprocess")
@@ -56,6 +57,16 @@ MAX_COARSER_LEVELS = 2
 BATCH_MIN_SHARE = 0.25
 # A plane crosses a shooting block when texels lie this share of a texel beyond it each way.
 CROSSING_MARGIN = 1e-3
+# A texel whose mean normal (over the surface it covers) is at least this long is flat: it
+# gathers at its sample's normal. A shorter one bends within it and gathers at two normals
+# (_bent_normal_codes, receiver_common.glsl), unless it is shorter than MIN_SPREAD: normals
+# that cancel (a whole tube in one texel) leave no mean direction.
+FLAT_SPREAD = 0.999
+MIN_SPREAD = 1e-3
+# A bent texel's axis and tilt (_bent_normal_codes) take 8 bits each of one 16-bit channel.
+BEND_STEPS = 255
+# Under this sine between a texel's sample normal and its mean normal, the sample is the mean.
+BEND_DIRECTION_SINE = math.sin(math.radians(1.0))
 # Edges bending less than this join triangles into one smooth surface (see smooth_surfaces).
 SMOOTH_SURFACE_DEGREES = 40.0
 # A gap under this share of a texel between facing surfaces is thin: receivers across it
@@ -434,6 +445,7 @@ class Solver:
         self._programs = {
             "attributes": gl.program("raster.vert", "raster_attributes.frag", "raster.geom"),
             "area": gl.program("raster.vert", "raster_area.frag", "raster.geom"),
+            "moments": gl.program("raster.vert", "normal_moments.frag", "raster.geom"),
             "block": gl.program("fullscreen.vert", "block_power.frag"),
             "argmax": gl.program("fullscreen.vert", "argmax.frag"),
             "visibility": gl.program("visibility.vert", "visibility.frag", "visibility.geom"),
@@ -544,6 +556,7 @@ class Solver:
         constants = {
             "attributes": {"u_atlas_size": size, "u_albedo_texture": 0},
             "area": {"u_atlas_size": size},
+            "moments": {"u_atlas_size": size, "u_normal": 0},
             "block": {"u_block": 1 << self.settings.shoot_level,
                       "u_position": 0, "u_unshot": 1},
             "argmax": {"u_source": 0},
@@ -628,7 +641,7 @@ class Solver:
         gl = self._gl
         textures = {
             "position": gl.texture(size, 4),            # xyz, area
-            "normal": gl.texture(size, 2, "nu2"),       # octahedral (texel_maps.glsl)
+            "normal": gl.texture(size, 4, "nu2"),       # octahedral (texel_maps.glsl), spread
             "material": gl.texture(size, 4, "nu2"),     # albedo, surface number
             "unshot": gl.texture(size, 4),              # radiance, texel size
             "level": gl.texture(size, 1, "nu1"),        # subdivision level
@@ -681,7 +694,7 @@ class Solver:
         vbo = gl.buffer(vertex_data.tobytes())
         vaos = {name: gl.vertex_array(self._programs[name],
                                       [_buffer_content(self._programs[name], vbo, RASTER_LAYOUT)])
-                for name in ("attributes", "area")}
+                for name in ("attributes", "area", "moments")}
         ctx = self.ctx
         self._prepare_subdivision(vbo, tris[order], atlas.page[order])
 
@@ -716,23 +729,56 @@ class Solver:
             irradiance = page.textures["irradiance"] = gl.texture(
                 (atlas.width, atlas.height), 4)
             page.receivers = gl.framebuffer([irradiance, page.textures["unshot"]])
+        self._measure_surface(vaos, keys[starts, 0], starts, ends)
+        for page in self._pages:
             page.receivers.color_mask = [(True,) * 4, (False,) * 4]   # the unshot holds emission
             page.receivers.clear(0.0, 0.0, 0.0, 0.0)
             page.receivers.color_mask = [(True,) * 4, (True,) * 4]
 
+        if self.settings.subdivision == "REGULAR":
+            self._raise_levels(np.nonzero(self._slot_receives)[0], self.settings.subdivision_level)
+
+    def _measure_surface(self, vaos, run_pages, starts, ends):
+        """Each texel's world area (the position map's .w) and, where its surface bends within
+        it, the spread of its normals (_bent_normal_codes): sums over the texel's triangles by
+        additive blending, with the irradiance map, not yet in use, holding them in turn."""
+        scope = self._gl.temporary_framebuffer
+        for page_index, page in enumerate(self._pages):
+            runs = list(zip(starts[run_pages == page_index], ends[run_pages == page_index]))
+            irradiance, after = page.textures["irradiance"], page.area_only
+            with scope([page.textures["position"], irradiance], then=after,
+                       color_mask=[(False, False, False, True), (True,) * 4]) as sums:
+                sums.clear(0.0, 0.0, 0.0, 0.0)   # the mask keeps the position's xyz
+                self._add_up(vaos["area"], runs)
+            normal_sum = self._read(irradiance).astype(np.float64)
+            covered = normal_sum[..., 3]
+            mean_length = np.linalg.norm(normal_sum[..., :3], axis=-1)
+            spread = np.divide(mean_length, covered, out=np.ones_like(covered),
+                               where=covered > 0.0)
+            bent = (spread < FLAT_SPREAD) & (spread > MIN_SPREAD)
+            if not bent.any():
+                continue
+            normal = page.textures["normal"]
+            normal.use(location=0)
+            with scope([irradiance], then=after) as moments:
+                moments.clear(0.0, 0.0, 0.0, 0.0)
+                self._add_up(vaos["moments"], runs)
+            stored = np.frombuffer(normal.read(), dtype=np.uint16).reshape(
+                normal.height, normal.width, 4).copy()
+            stored[bent, 2:] = _bent_normal_codes(
+                normal_sum[bent], self._read(irradiance)[bent].astype(np.float64),
+                _decode_normals(stored[bent] / 65535.0))
+            normal.write(stored.tobytes())
+
+    def _add_up(self, vao, runs):
+        """Draw the triangle runs with additive blending into the bound framebuffer."""
+        ctx = self.ctx
         ctx.enable(moderngl.BLEND)
         ctx.blend_equation = moderngl.FUNC_ADD
         ctx.blend_func = moderngl.ONE, moderngl.ONE
-        for start, end in zip(starts, ends):
-            page = self._pages[keys[start][0]]
-            page.area_only.use()
-            page.area_only.color_mask = (False, False, False, True)
-            vaos["area"].render(moderngl.TRIANGLES, vertices=3 * (end - start), first=3 * start)
-            page.area_only.color_mask = (True, True, True, True)
+        for start, end in runs:
+            vao.render(moderngl.TRIANGLES, vertices=3 * (end - start), first=3 * start)
         ctx.disable(moderngl.BLEND)
-
-        if self.settings.subdivision == "REGULAR":
-            self._raise_levels(np.nonzero(self._slot_receives)[0], self.settings.subdivision_level)
 
     # ----------------------------------------------------------------- subdivision
     def _prepare_subdivision(self, vbo, slot_triangles, slot_pages):
@@ -1693,11 +1739,42 @@ def _decode_normals(stored):
     return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
 
 
-def _tangent_of(n):
-    """The shaders' tangent_of() (texel_maps.glsl): along the world axis least along n."""
-    axis = np.eye(3)[int(np.argmin(np.abs(n)))]
-    t = axis - n * (axis @ n)
-    return t / np.linalg.norm(t)
+def _bent_normal_codes(normal_sum, moments, sample_normals):
+    """The normal map's third and fourth channels (RGBA16) of texels whose surface bends
+    within them, from sums over their covered shares c: c n and c (normal_sum), and c tt,
+    c bb, c tb (moments), t and b the normal's components along tangent_of(s) and s x
+    tangent_of(s) for the sample's normal s. The spread is the mean normal's length; the
+    receivers (texel_maps.glsl decode_bend) gather at the mean normal's direction turned by
+    acos(spread) each way along the bend, given as the heading of a tangent of s (from
+    tangent_of(s) towards s x tangent_of(s)) and the tilt from s along it to the mean. The
+    bend runs from s towards the mean, or where s is the mean, along the principal axis of
+    the moments: where the normals vary most."""
+    covered = normal_sum[:, 3:4]
+    mean = normal_sum[:, :3] / covered
+    spread = np.linalg.norm(mean, axis=1)
+    mean /= spread[:, None]
+    tt, bb, tb = (moments[:, i] / covered[:, 0] for i in range(3))
+    principal_heading = 0.5 * np.arctan2(2.0 * tb, tt - bb)
+    t = _tangents_of(sample_normals)
+    b = np.cross(sample_normals, t)
+    along = (mean * sample_normals).sum(axis=1)
+    towards = mean - along[:, None] * sample_normals
+    apart = np.linalg.norm(towards, axis=1)
+    bends_away = apart > BEND_DIRECTION_SINE
+    heading = np.where(bends_away, np.arctan2((towards * b).sum(axis=1),
+                                              (towards * t).sum(axis=1)), principal_heading)
+    tilt = np.where(bends_away, np.arctan2(apart, along), 0.0)
+    heading_code = np.round((heading / (2.0 * math.pi) + 0.5) * BEND_STEPS)
+    tilt_code = np.round(np.clip(tilt / (0.5 * math.pi), 0.0, 1.0) * BEND_STEPS)
+    return np.stack([np.round(spread * 65535.0),
+                     heading_code * (BEND_STEPS + 1) + tilt_code], axis=1).astype(np.uint16)
+
+
+def _tangents_of(normals):
+    """tangent_of() (texel_maps.glsl) of each row of ``normals``."""
+    axes = np.eye(3)[np.argmin(np.abs(normals), axis=1)]
+    t = axes - normals * (axes * normals).sum(axis=1, keepdims=True)
+    return t / np.linalg.norm(t, axis=1, keepdims=True)
 
 
 def _texels_to_world(texel_points, uv, corners):
@@ -1719,13 +1796,13 @@ def _lightmap_tangent(texels, positions, n):
     along +y turned a quarter when they span one column, tangent_of(n) for one texel."""
     spans = [texels[:, axis].min() < texels[:, axis].max() for axis in (0, 1)]
     if not any(spans):
-        return _tangent_of(n)
+        return _tangents_of(n[None])[0]
     design = np.column_stack([np.ones(len(texels)), texels[:, [i for i in (0, 1) if spans[i]]]])
     slopes = np.linalg.lstsq(design, positions, rcond=None)[0][1:]
     direction = slopes[0] if spans[0] else np.cross(slopes[0], n)
     direction = direction - n * (direction @ n)
     length = np.linalg.norm(direction)
-    return direction / length if length > 1e-12 else _tangent_of(n)
+    return direction / length if length > 1e-12 else _tangents_of(n[None])[0]
 
 
 def _rectangle_around(members, strongest, width, height):

@@ -18,13 +18,15 @@ uniform sampler2D u_albedo_texture;
 uniform int u_use_texture;
 
 layout(location = 0) out vec4 out_position;  // xyz, w = texel area (added by the area pass)
-layout(location = 1) out vec4 out_normal;    // octahedral normal (texel_maps.glsl)
+layout(location = 1) out vec4 out_normal;    // octahedral normal (texel_maps.glsl), and the
+                                             // spread of a flat texel (Solver._measure_surface)
 layout(location = 2) out vec4 out_material;  // albedo, a = the receiving surface's number
 layout(location = 3) out vec4 out_unshot;    // emitted radiance (the first unshot), a = world
                                              // length of a texel edge
 
 #include "texel_maps.glsl"
 #include "texel_clip.glsl"
+#include "shading_normal.glsl"
 
 void main() {
     vec2 origin = floor(gl_FragCoord.xy);
@@ -38,16 +40,13 @@ void main() {
     float depth = 0.0;
     if (min(w.x, min(w.y, w.z)) < 0.0) {
         sample_point = covered_centre;
-        w = clamp(barycentric(covered_centre), 0.0, 1.0);
-        w /= (w.x + w.y + w.z);
+        w = covered_barycentric(covered_centre);
         depth = 0.5 + 0.49 * (1.0 - min(covered, 1.0));
     }
     gl_FragDepth = depth;
 
     vec3 position = w.x * g_position[0] + w.y * g_position[1] + w.z * g_position[2];
-    vec3 normal = w.x * g_normal[0] + w.y * g_normal[1] + w.z * g_normal[2];
-    float len = length(normal);
-    normal = (len > 1e-12 && dot(normal, g_face_normal) > 0.0) ? normal / len : g_face_normal;
+    vec3 normal = shading_normal(w);
 
     vec3 albedo = g_albedo;
     if (u_use_texture != 0) {
@@ -56,7 +55,7 @@ void main() {
     }
 
     out_position = vec4(position, 0.0);
-    out_normal = vec4(encode_normal(normal), 0.0, 0.0);
+    out_normal = vec4(encode_normal(normal), 1.0, 0.0);
     out_material = vec4(albedo, encode_surface(g_receive));
     out_unshot = vec4(g_emission, g_texel_size);
 }

@@ -23,7 +23,8 @@ void main() {
     vec4 material = texelFetch(u_material, texel, 0);
     if (position.w <= 0.0 || material.a <= 0.0) discard;
     receiver_surface = decode_surface(material.a);
-    vec3 normal = decode_normal(texelFetch(u_normal, texel, 0).xy);
+    vec4 stored_normal = texelFetch(u_normal, texel, 0);
+    vec3 normal = decode_normal(stored_normal.xy);
     // A texel's side on the surface: its area's root (less than a texel edge at chart borders).
     float side = sqrt(position.w);
     // A subdivided texel gathers at split x split points spread over a square of its area
@@ -34,18 +35,33 @@ void main() {
     // surface, nothing here: the solver adds the gap's light (receive_patch.frag, near_side).
     float near_side = in_near_field(position.xyz, side) ? side : 0.0;
     int split = near_side > 0.0 ? 1 : 1 << decode_level(texelFetch(u_level, texel, 0).r);
+    // A texel whose surface bends within it gathers at two normals, its mean normal turned
+    // each way along the bend by acos(spread), so that their mean is the covered surface's
+    // mean normal (texel_maps.glsl decode_bend): at its sample's normal it got the light of
+    // one side of a cable for the whole of it. Next to the shooter it gathers at the sample's
+    // normal: from the sample point other normals see a neighbouring part of a convex surface
+    // (its shooter's quad a plane across the curve), which the surface does not. A flat
+    // texel gathers at its normal.
+    float spread = stored_normal.z;
+    int normals = spread < 1.0 && near_side == 0.0 ? 2 : 1;
+    vec3 mean_normal, bend_axis;
+    decode_bend(normal, stored_normal.w, mean_normal, bend_axis);
+    vec3 turn = sqrt(max(1.0 - spread * spread, 0.0)) * bend_axis;
     vec3 tangent = tangent_of(normal);
     vec3 bitangent = cross(normal, tangent);
     vec3 irradiance = vec3(0.0);
     // One loop and one call site: a second inlined copy of irradiance_at() cost llvmpipe
     // as much again per fragment, even where no texel took its branch.
-    for (int k = 0; k < split * split; ++k) {
-        vec2 offset = (vec2(k % split, k / split) + 0.5) / float(split) - 0.5;
+    for (int k = 0; k < split * split * normals; ++k) {
+        int cell = k / normals;
+        vec2 offset = (vec2(cell % split, cell / split) + 0.5) / float(split) - 0.5;
+        vec3 gathering_normal = normals == 1 ? normal
+                              : spread * mean_normal + (k % 2 == 0 ? turn : -turn);
         irradiance += irradiance_at(position.xyz + side * (offset.x * tangent
-                                                           + offset.y * bitangent), normal,
-                                    near_side);
+                                                           + offset.y * bitangent),
+                                    gathering_normal, near_side);
     }
-    irradiance /= float(split * split);
+    irradiance /= float(split * split * normals);
     if (irradiance.r + irradiance.g + irradiance.b <= 0.0) discard;
     // The irradiance gained by this texel and the reflected radiance it must shoot later.
     out_irradiance = vec4(irradiance, 0.0);

@@ -1,7 +1,9 @@
-// Clip the triangle g_texel[0..2] against the unit texel square at 'origin'.
-// Returns the covered area in texel units and the covered_centre of the covered part.
+// A triangle in lightmap texels (g_texel[0..2], from raster.geom) against one texel: the
+// part of the texel square it covers and barycentrics.
 #include "plane2d.glsl"
 
+// Clip the triangle against the unit texel square at 'origin'. Returns the covered area in
+// texel units and the covered_centre of the covered part.
 float clip_triangle_to_texel(vec2 origin, out vec2 covered_centre) {
     vec2 poly[9];
     vec2 next_poly[9];
@@ -43,4 +45,11 @@ vec3 barycentric(vec2 p) {
     float wa = cross2(b - p, c - p) / total;
     float wb = cross2(c - p, a - p) / total;
     return vec3(wa, wb, 1.0 - wa - wb);
+}
+
+// Barycentrics of the covered_centre of a texel the triangle covers only partly: the
+// triangle's nearest point to it (rounding puts it just outside).
+vec3 covered_barycentric(vec2 covered_centre) {
+    vec3 w = clamp(barycentric(covered_centre), 0.0, 1.0);
+    return w / (w.x + w.y + w.z);
 }

@@ -36,3 +36,21 @@ vec3 tangent_of(vec3 n) {
               : (a.y <= a.z ? vec3(0.0, 1.0, 0.0) : vec3(0.0, 0.0, 1.0));
     return normalize(axis - n * dot(axis, n));
 }
+
+// A texel whose surface bends within it (Solver._measure_surface) keeps its sample's normal n
+// in the first two channels, the spread of its normals (the mean normal's length, 1 on a flat
+// texel) in the third, and in the fourth, 8 bits each, the heading of a tangent of n (from
+// tangent_of(n) towards n x tangent_of(n)) and the tilt from n along it to the mean normal
+// (_bent_normal_codes). Gives the mean normal's direction and the axis, at it, along which
+// the normals vary most.
+const float BEND_STEPS = 255.0;
+
+void decode_bend(vec3 n, float stored, out vec3 mean, out vec3 axis) {
+    float code = floor(stored * 65535.0 + 0.5);
+    float heading = (floor(code / (BEND_STEPS + 1.0)) / BEND_STEPS - 0.5) * 6.28318530717959;
+    float tilt = mod(code, BEND_STEPS + 1.0) / BEND_STEPS * 1.5707963267949;
+    vec3 t = tangent_of(n);
+    vec3 towards = cos(heading) * t + sin(heading) * cross(n, t);
+    mean = cos(tilt) * n + sin(tilt) * towards;
+    axis = cos(tilt) * towards - sin(tilt) * n;
+}
