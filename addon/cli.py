@@ -3,16 +3,15 @@ with Cycles, for pipelines. Progress goes to stdout; a failure prints one line t
 exits non-zero."""
 import argparse
 from dataclasses import replace
-import math
 import os
 import sys
 
 import bpy
 
-from ..native import MAX_SUBDIVISION_LEVEL, LuxelError
+from ..native import LuxelError
+from ..native.settings import add_options, given_settings
 from .bake import BakeJob
 from .compare import compare_with_cycles, summary_lines
-from .properties import PROJECTIONS, SUBDIVISIONS
 from .writeback import remove_lightmaps
 
 EXIT_FAILED = 1
@@ -34,7 +33,7 @@ def _parser():
                      "with Cycles.")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     bake = commands.add_parser("bake", help="bake the open .blend's scene")
-    _add_bake_options(bake)
+    add_options(bake)   # the solver's settings; one left out keeps the scene's
     bake.add_argument("--output", metavar="DIR", help="write EXR lightmaps into DIR")
     bake.add_argument("--preview", metavar="PNG",
                       help="render the camera view with the baked lighting (Workbench)")
@@ -44,7 +43,7 @@ def _parser():
     remove.add_argument("--save", action="store_true", help="save the .blend afterwards")
     compare = commands.add_parser("compare", help="bake with Luxel and with Cycles; write "
                                   "report.json, report.html and images into DIR")
-    _add_bake_options(compare)
+    add_options(compare)
     compare.add_argument("--output", metavar="DIR", required=True, help="the report folder")
     compare.add_argument("--samples", type=int, help="Cycles samples of the reference bake")
     compare.add_argument("--view-samples", type=int, help="Cycles samples of each view")
@@ -52,26 +51,6 @@ def _parser():
     compare.add_argument("--resolution", type=int, nargs=2, metavar=("W", "H"),
                          help="size of the views in pixels")
     return parser
-
-
-def _add_bake_options(parser):
-    parser.add_argument("--projection", choices=[item[0] for item in PROJECTIONS])
-    parser.add_argument("--no-neighbour-visibility", action="store_true",
-                        help="a receiver is visible only when its own visibility texel sees it")
-    parser.add_argument("--subdivision", choices=[item[0] for item in SUBDIVISIONS],
-                        help="texels that gather light at several points")
-    parser.add_argument("--subdivision-level", type=int, metavar="N",
-                        help=f"gather at 4^N points per texel, N in 1..{MAX_SUBDIVISION_LEVEL}")
-    parser.add_argument("--shadow-range", type=float, nargs=2, metavar=("MIN", "MAX"),
-                        help="ADAPTIVE refines triangles whose shadowed share is in [MIN, MAX]")
-    parser.add_argument("--adaptive-shoot-level", action="store_true",
-                        help="weak shooters shoot from coarser blocks")
-    parser.add_argument("--no-ambient", action="store_true",
-                        help="leave out the ambient term (the bounced light still unshot, "
-                        "spread evenly)")
-    parser.add_argument("--shots", type=int, help="stop after this many shots")
-    parser.add_argument("--threshold", type=float, help="stop at this unshot energy fraction")
-    parser.add_argument("--density", type=float, help="lightmap texels per metre")
 
 
 def execute(argv):
@@ -94,20 +73,6 @@ def _check(args):
         if args.save and not bpy.data.filepath:
             raise _UsageError("--save needs a .blend file: open one with blender -b FILE.blend")
         return
-    if args.shots is not None and args.shots < 1:
-        raise _UsageError("--shots must be 1 or more")
-    if args.threshold is not None and not 0.0 <= args.threshold < 1.0:
-        raise _UsageError("--threshold must be in [0, 1), e.g. 0.01")
-    if args.density is not None and not 0.0 < args.density < math.inf:
-        raise _UsageError("--density must be a positive number of texels per metre, e.g. 20")
-    if (args.subdivision_level is not None
-            and not 1 <= args.subdivision_level <= MAX_SUBDIVISION_LEVEL):
-        raise _UsageError(f"--subdivision-level must be in 1..{MAX_SUBDIVISION_LEVEL}")
-    if args.shadow_range is not None:
-        shadow_min, shadow_max = args.shadow_range
-        if not 0.0 <= shadow_min < shadow_max <= 1.0:
-            raise _UsageError("--shadow-range MIN MAX must satisfy 0 <= MIN < MAX <= 1, "
-                              "e.g. 0.02 0.98")
     if args.command == "bake" and args.save and not bpy.data.filepath:
         raise _UsageError("--save needs a .blend file: open one with blender -b FILE.blend")
     if args.command == "compare":
@@ -120,26 +85,8 @@ def _check(args):
 
 
 def _apply_bake_options(args, settings):
-    if args.projection:
-        settings.projection = args.projection
-    if args.no_neighbour_visibility:
-        settings.neighbour_visibility = False
-    if args.subdivision:
-        settings.subdivision = args.subdivision
-    if args.subdivision_level is not None:
-        settings.subdivision_level = args.subdivision_level
-    if args.shadow_range is not None:
-        settings.subdivision_shadow_min, settings.subdivision_shadow_max = args.shadow_range
-    if args.adaptive_shoot_level:
-        settings.adaptive_shoot_level = True
-    if args.no_ambient:
-        settings.ambient = False
-    if args.shots is not None:
-        settings.max_shots = args.shots
-    if args.threshold is not None:
-        settings.threshold = args.threshold
-    if args.density is not None:
-        settings.texel_density = args.density
+    for name, value in given_settings(args).items():
+        setattr(settings, name, value)
 
 
 def _bake(args):

@@ -3,25 +3,8 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty,
                        IntVectorProperty, PointerProperty, StringProperty)
 
-from ..native import MAX_SUBDIVISION_LEVEL, Settings
+from ..native.settings import EXPOSED_SETTINGS, Settings
 from .compare import CompareOptions
-
-_DEFAULTS = Settings()
-
-PROJECTIONS = [
-    ("HEMICUBE", "Hemicube", "Five rasterised faces around each shooter (the paper's baseline)"),
-    ("HEMISPHERE", "Hemisphere", "Stereographic projection per vertex: one render, straight "
-     "edges stay straight"),
-    ("NONLINEAR", "Non-Linear", "Non-linear hemisphere projection (Gascuel et al. 2008): exact "
-     "spherical triangles in one render"),
-]
-
-SUBDIVISIONS = [
-    ("NONE", "None", "Each texel gathers light at its centre"),
-    ("ADAPTIVE", "Adaptive", "Refine triangles partly in shadow, and the triangles casting the "
-     "shadow: sharper shadow edges for less work than Regular"),
-    ("REGULAR", "Regular", "Refine every triangle: each texel gathers light at 4^level points"),
-]
 
 OUTPUTS = [
     ("PACK", "Pack into .blend", "Lightmaps are packed into the .blend file as EXR"),
@@ -76,27 +59,25 @@ class LuxelComparison(bpy.types.PropertyGroup):
                               resolution=tuple(self.resolution), views=self.views)
 
 
+def _solver_property(setting):
+    """The Blender property of one of the solver's settings, made from its declaration."""
+    common = dict(name=setting.exposed.label, description=setting.help, default=setting.default)
+    if setting.kind is bool:
+        return BoolProperty(**common)
+    if setting.kind is str:
+        return EnumProperty(items=[(choice.identifier, choice.label, choice.help)
+                                   for choice in setting.choices], **common)
+    limits = {key: value for key, value in (("min", setting.minimum), ("max", setting.maximum),
+                                            ("soft_max", setting.soft_maximum))
+              if value is not None}
+    if setting.kind is int:
+        return IntProperty(subtype=setting.exposed.subtype, **limits, **common)
+    digits = {} if setting.exposed.digits is None else {"precision": setting.exposed.digits}
+    return FloatProperty(subtype=setting.exposed.subtype, **digits, **limits, **common)
+
+
 class LuxelSceneSettings(bpy.types.PropertyGroup):
-    projection: EnumProperty(name="Projection", items=PROJECTIONS, default=_DEFAULTS.projection,
-                             description="How visibility is sampled around each shooter")
-    texel_density: FloatProperty(name="Texel Density", default=_DEFAULTS.texel_density,
-                                 min=0.01, soft_max=1000.0,
-                                 description="Lightmap texels per metre of surface")
-    max_shots: IntProperty(name="Max Shots", default=_DEFAULTS.max_shots, min=1,
-                           description="Stop after this many shots")
-    threshold: FloatProperty(name="Threshold", default=_DEFAULTS.threshold, min=0.0, max=0.99,
-                             precision=4, description="Stop when this fraction of the emitted "
-                             "power is left unshot (sunlight that misses the scene does not "
-                             "count)")
-    hemicube_resolution: IntProperty(name="Hemicube Resolution",
-                                     default=_DEFAULTS.hemicube_resolution, min=8, max=4096,
-                                     description="Texels on a side of each hemicube face; the "
-                                     "hemisphere projections' maps are twice as wide")
-    shoot_level: IntProperty(name="Shoot Level", default=_DEFAULTS.shoot_level, min=0, max=6,
-                             description="Mip level shot from: a shooter spans 2^level texels")
-    max_atlas_size: IntProperty(name="Max Image Size", default=_DEFAULTS.max_atlas_size,
-                                min=64, max=16384,
-                                description="Largest lightmap side; more images when exceeded")
+    """The bake's settings: the solver's (native/settings.py, added below) and Blender's own."""
     output: EnumProperty(name="Output", items=OUTPUTS, default="PACK",
                          description="Where the lightmap images are stored")
     directory: StringProperty(name="Folder", default="//lightmaps", subtype='DIR_PATH',
@@ -105,48 +86,18 @@ class LuxelSceneSettings(bpy.types.PropertyGroup):
                              update=_show_baked_changed,
                              description="Display the baked lightmaps in EEVEE, Cycles and "
                              "Workbench; turning it off restores the materials exactly")
-    adaptive_shoot_level: BoolProperty(name="Adaptive Shoot Level",
-                                       default=_DEFAULTS.adaptive_shoot_level,
-                                       description="Shooters with little unshot energy shoot "
-                                       "from coarser blocks of texels: fewer, larger shots")
-    ambient: BoolProperty(name="Ambient Term", default=_DEFAULTS.ambient,
-                          description="Add the light still unshot after its first bounce as "
-                          "even ambient light (an estimate, like the unshot share it stands "
-                          "for): rooms look converged far sooner")
-    neighbour_visibility: BoolProperty(name="Neighbour Visibility",
-                                       default=_DEFAULTS.neighbour_visibility,
-                                       description="A receiver is visible when any of the 3x3 "
-                                       "visibility texels around it sees it, against dark "
-                                       "speckles where the visibility map undersamples")
-    subdivision: EnumProperty(name="Subdivision", items=SUBDIVISIONS,
-                              default=_DEFAULTS.subdivision,
-                              description="Where texels gather light at several points")
-    subdivision_level: IntProperty(name="Subdivision Level", default=_DEFAULTS.subdivision_level,
-                                   min=1, max=MAX_SUBDIVISION_LEVEL,
-                                   description="A texel at level k gathers light at 4^k points")
-    subdivision_shadow_min: FloatProperty(name="Shadow Min",
-                                          default=_DEFAULTS.subdivision_shadow_min,
-                                          min=0.0, max=1.0, subtype='FACTOR',
-                                          description="Adaptive refines a triangle when at "
-                                          "least this share of its texels is in shadow")
-    subdivision_shadow_max: FloatProperty(name="Shadow Max",
-                                          default=_DEFAULTS.subdivision_shadow_max,
-                                          min=0.0, max=1.0, subtype='FACTOR',
-                                          description="Adaptive refines a triangle when at "
-                                          "most this share of its texels is in shadow")
     stats: PointerProperty(type=LuxelBakeStats)
     comparison: PointerProperty(type=LuxelComparison)
 
     def solver_settings(self):
-        return Settings(texel_density=self.texel_density, max_atlas_size=self.max_atlas_size,
-                        hemicube_resolution=self.hemicube_resolution,
-                        shoot_level=self.shoot_level, threshold=self.threshold,
-                        max_shots=self.max_shots, projection=self.projection,
-                        neighbour_visibility=self.neighbour_visibility,
-                        subdivision=self.subdivision, subdivision_level=self.subdivision_level,
-                        subdivision_shadow_min=self.subdivision_shadow_min,
-                        subdivision_shadow_max=self.subdivision_shadow_max,
-                        adaptive_shoot_level=self.adaptive_shoot_level, ambient=self.ambient)
+        return Settings(**{setting.name: getattr(self, setting.name)
+                           for setting in EXPOSED_SETTINGS})
+
+
+# Blender reads a PropertyGroup's properties from its annotations when it is registered.
+LuxelSceneSettings.__annotations__ = {
+    **{setting.name: _solver_property(setting) for setting in EXPOSED_SETTINGS},
+    **LuxelSceneSettings.__annotations__}
 
 
 class LuxelObjectSettings(bpy.types.PropertyGroup):

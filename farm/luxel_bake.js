@@ -12,6 +12,12 @@
 
 const SEPARATOR = ";";
 const TASK_TYPE = "luxel";
+// Luxel's ranges of its texel_density and threshold settings (native/settings.py; the tests
+// check these against it), so that a job Luxel would refuse is refused when submitted.
+const DENSITY_MIN = 0.01;
+const DENSITY_SOFT_MAX = 1000.0;
+const THRESHOLD_MIN = 0.0;
+const THRESHOLD_MAX = 0.99;
 
 const JOB_TYPE = {
     label: "Luxel Bake",
@@ -23,10 +29,10 @@ const JOB_TYPE = {
         { key: "output_root", type: "string", subtype: "dir_path", required: true,
           description: "Folder for the lightmaps; every job writes into a new subfolder of it" },
         { key: "density", type: "float", required: true, default: 20.0,
-          propargs: { min: 0.01, soft_max: 1000.0 },
+          propargs: { min: DENSITY_MIN, soft_max: DENSITY_SOFT_MAX },
           description: "Lightmap texels per metre of surface (luxel bake --density)" },
         { key: "threshold", type: "float", required: true, default: 0.01,
-          propargs: { min: 0.0, max: 0.99, precision: 4 },
+          propargs: { min: THRESHOLD_MIN, max: THRESHOLD_MAX, precision: 4 },
           description: "Stop when this fraction of the emitted power is unshot (--threshold)" },
         { key: "save", type: "bool", default: false,
           description: "Also save each .blend with its lightmaps, as a copy in its output folder" },
@@ -55,10 +61,13 @@ function compileJob(job) {
     const settings = job.settings;
     const blendfiles = blendfileList(settings.blendfiles);
     const outputRoot = requiredFolder(settings, "output_root");
-    const density = requiredNumber(settings, "density", (d) => d > 0,
-                                   "a positive number of texels per metre, e.g. 20");
-    const threshold = requiredNumber(settings, "threshold", (t) => t >= 0 && t < 1,
-                                     "a number in [0, 1), e.g. 0.01");
+    const density = requiredNumber(settings, "density", (d) => d >= DENSITY_MIN,
+                                   `a number of at least ${DENSITY_MIN} texels per metre, `
+                                   + "e.g. 20");
+    const threshold = requiredNumber(settings, "threshold",
+                                     (t) => t >= THRESHOLD_MIN && t <= THRESHOLD_MAX,
+                                     `a number from ${THRESHOLD_MIN} to ${THRESHOLD_MAX}, `
+                                     + "e.g. 0.01");
     const save = settings.save === undefined ? false : settings.save;
     if (typeof save !== "boolean") {
         refuse("save", "must be true or false");

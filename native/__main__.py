@@ -5,6 +5,7 @@
 writes lightmap_page<N>.exr (float32 RGBA), lightmap_page<N>.png (the atlas, tone-mapped) and
 preview.png (a camera view lit by the lightmaps), and prints the bake's statistics."""
 import argparse
+from dataclasses import replace
 from pathlib import Path
 import sys
 
@@ -12,25 +13,29 @@ from . import Settings, Solver, tone_map, write_exr, write_png
 from .errors import LuxelError
 from .preview import render_preview
 from .samples import cornell_box
+from .settings import add_options, given_settings
 
 CORNELL_CAMERA = dict(eye=(0.278, 0.273, -0.8), target=(0.278, 0.273, 0.28), fov=39.3)
+# Finer than a bake's defaults: the demo shows the solver at its best.
+CORNELL_SETTINGS = Settings(texel_density=100.0, threshold=0.02, max_shots=20000,
+                            hemicube_resolution=256)
+
+
+def parser():
+    """The demo's command line: --output and an option for every exposed setting."""
+    options = argparse.ArgumentParser(prog="python -m native",
+                                      description=__doc__.split("\n")[0])
+    options.add_argument("--output", type=Path, default=Path("out/cornell"))
+    add_options(options, defaults=CORNELL_SETTINGS)
+    return options
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m native", description=__doc__.split("\n")[0])
-    parser.add_argument("--output", type=Path, default=Path("out/cornell"))
-    parser.add_argument("--density", type=float, default=100.0, help="texels per metre")
-    parser.add_argument("--threshold", type=float, default=0.02, help="unshot fraction to stop at")
-    parser.add_argument("--shots", type=int, default=20000, help="maximum number of shots")
-    parser.add_argument("--shoot-level", type=int, default=2)
-    parser.add_argument("--hemicube", type=int, default=256, help="hemicube resolution")
-    args = parser.parse_args(argv)
+    args = parser().parse_args(argv)
 
     try:
         args.output.mkdir(parents=True, exist_ok=True)
-        settings = Settings(texel_density=args.density, threshold=args.threshold,
-                            max_shots=args.shots, shoot_level=args.shoot_level,
-                            hemicube_resolution=args.hemicube)
+        settings = replace(CORNELL_SETTINGS, **given_settings(args))
         with Solver(cornell_box(), settings) as solver:
             print(f"device: {solver.ctx.info['GL_RENDERER']}")
             width, height = solver.gpu_page_size

@@ -20,9 +20,10 @@ import moderngl
 import numpy as np
 
 from .atlas import build_atlas, charted_triangles, tight_packing
-from .errors import GPUMemoryError, SettingsError
+from .errors import GPUMemoryError
 from .gpu import GLObjects, create_context, query_pool, using
 from .scene import SpotLight, SunLight
+from .settings import Settings
 from .thin_gaps import (area, band_cells, chord_lengths, clipped, clipped_segment, edge_band,
                         share_under, signed_area, square, square_halves)
 
@@ -40,9 +41,6 @@ PHASES = ("preprocess", "selection", "visibility", "subdivision", "receivers", "
 # strongest one's; the rest wait for a later shot. Lumping a bright corner with dim texels
 # would shoot the bright energy from the wrong place (across a shadow boundary, say).
 SIMILAR_RADIANCE = 0.25
-PROJECTIONS = ("HEMICUBE", "HEMISPHERE", "NONLINEAR")
-SUBDIVISIONS = ("NONE", "ADAPTIVE", "REGULAR")
-MAX_SUBDIVISION_LEVEL = 3
 # Adaptive subdivision looks for shadow boundaries only in shots carrying at least this share
 # of the strongest shot's power: the weak late shots add soft light, and each look costs two
 # occlusion queries per receiving triangle facing the shooter.
@@ -87,61 +85,6 @@ BLOCK_MAPS = ((0, 4), (1, 2), (2, 4), (3, 4))
 SURFACE_NUMBERS = 4095
 # The octahedral normal's steps each way of 0 in its 16-bit channels (texel_maps.glsl).
 OCT_STEPS = 32767.0
-
-
-@dataclass
-class Settings:
-    texel_density: float = 20.0      # lightmap texels per metre
-    max_atlas_size: int = 4096       # largest page side; more pages when exceeded
-    padding: int = 2                 # texels between charts
-    hemicube_resolution: int = 128   # texels on a side of each visibility face
-    shoot_level: int = 2             # mip level shot from: a shooter spans 2^level texels
-    threshold: float = 0.01          # stop when this fraction of the emitted power is unshot
-                                     # (sunlight that hits nothing does not count)
-    max_shots: int = 10000           # stop after this many shots
-    memory_limit: int = 4 << 30      # bytes of GPU memory Luxel may use
-    sky_directions: int = 256        # suns that stand in for a uniform sky (world colour)
-    # Visibility around each shooter: HEMICUBE (five faces of hemicube_resolution), HEMISPHERE
-    # (stereographic, per vertex: straight edges stay straight) or NONLINEAR (Gascuel et al.
-    # 2008: exact spherical triangles). The hemisphere maps are 2 * hemicube_resolution wide,
-    # which samples the zenith as finely as the hemicube does.
-    projection: str = "HEMICUBE"
-    neighbour_visibility: bool = True  # share of the 3x3 map texels seeing a receiver (Sec. 5.2)
-    # Receiver refinement: NONE, ADAPTIVE (triangles whose shadowed share of texels lies in
-    # [subdivision_shadow_min, subdivision_shadow_max], found by occlusion queries, and the
-    # casters of their shadows) or REGULAR (every triangle), up to subdivision_level: a texel
-    # at level k gathers light at 4^k points.
-    subdivision: str = "NONE"
-    subdivision_level: int = 2
-    subdivision_shadow_min: float = 0.02
-    subdivision_shadow_max: float = 0.98
-    adaptive_shoot_level: bool = False  # weak shooters shoot from coarser blocks (Sec. 5.1)
-    shooters_per_selection: int = 8  # shots per GPU read-back; 1 is the paper's one by one
-    ambient: bool = True             # result() adds the bounced unshot light as uniform ambient
-    profile: bool = False            # wait for the GPU after each phase for exact timings
-
-    def validate(self):
-        checks = [
-            (self.max_atlas_size >= 16, "max_atlas_size must be at least 16"),
-            (self.padding >= 1, "padding must be at least 1 texel"),
-            (8 <= self.hemicube_resolution <= 4096, "hemicube_resolution must be in 8..4096"),
-            (0 <= self.shoot_level <= 6, "shoot_level must be in 0..6"),
-            (0.0 <= self.threshold < 1.0, "threshold must be in [0, 1)"),
-            (self.max_shots >= 0, "max_shots must be 0 or more"),
-            (1 <= self.sky_directions <= 65536, "sky_directions must be in 1..65536"),
-            (self.projection in PROJECTIONS,
-             f"projection must be one of {', '.join(PROJECTIONS)}"),
-            (self.subdivision in SUBDIVISIONS,
-             f"subdivision must be one of {', '.join(SUBDIVISIONS)}"),
-            (0 <= self.subdivision_level <= MAX_SUBDIVISION_LEVEL,
-             f"subdivision_level must be in 0..{MAX_SUBDIVISION_LEVEL}"),
-            (0.0 <= self.subdivision_shadow_min < self.subdivision_shadow_max <= 1.0,
-             "subdivision shadow thresholds must satisfy 0 <= min < max <= 1"),
-            (1 <= self.shooters_per_selection <= 64, "shooters_per_selection must be in 1..64"),
-        ]
-        for ok, message in checks:
-            if not ok:
-                raise SettingsError(message)
 
 
 @dataclass

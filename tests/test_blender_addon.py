@@ -415,6 +415,77 @@ def test_every_solver_setting_in_the_scene_reaches_the_native_settings():
     assert dataclasses.asdict(scene.luxel.solver_settings()) == {**defaults, **non_defaults}
 
 
+def as_stored(value):
+    """A declared value as a Blender property holds it: a float in single precision."""
+    return float(np.float32(value)) if isinstance(value, float) else value
+
+
+def test_the_scene_properties_are_the_declared_settings():
+    """Each solver setting in scene.luxel has the label, help, default and range or choices
+    that native/settings.py declares, and a fresh scene hands the solver those defaults."""
+    scene = blender_session.empty_file()
+    declared = blender_session.addon().native.settings
+    properties = scene.luxel.bl_rna.properties
+    for setting in declared.EXPOSED_SETTINGS:
+        prop = properties[setting.name]
+        assert (prop.name, prop.description) == (setting.exposed.label, setting.help)
+        assert prop.type == {bool: 'BOOLEAN', str: 'ENUM', int: 'INT', float: 'FLOAT'}[
+            setting.kind], setting.name
+        if setting.kind in (bool, str):
+            assert prop.default == setting.default, setting.name
+            assert [(item.identifier, item.name, item.description)
+                    for item in getattr(prop, "enum_items", [])] == [
+                (choice.identifier, choice.label, choice.help) for choice in setting.choices]
+            continue
+        assert prop.default == as_stored(setting.default), setting.name
+        # Blender's limits where none is given: INT_MIN, INT_MAX or -FLT_MAX, FLT_MAX.
+        unbounded = (2**31 - 1 if setting.kind is int else
+                     float(np.finfo(np.float32).max))
+        assert prop.hard_min == (-unbounded - (setting.kind is int) if setting.minimum is None
+                                 else as_stored(setting.minimum)), setting.name
+        assert prop.hard_max == (unbounded if setting.maximum is None else
+                                 as_stored(setting.maximum)), setting.name
+        if setting.soft_maximum is not None:
+            assert prop.soft_max == as_stored(setting.soft_maximum), setting.name
+        assert prop.subtype == setting.exposed.subtype, setting.name
+        if setting.exposed.digits is not None:
+            assert prop.precision == setting.exposed.digits, setting.name
+    given = dataclasses.asdict(scene.luxel.solver_settings())
+    for setting in declared.SETTINGS:
+        assert given[setting.name] == as_stored(setting.default), setting.name
+
+
+def test_the_command_line_sets_each_declared_setting_to_a_bound_unclamped():
+    """Each exposed setting's option reaches scene.luxel: a number at the end of its range
+    that is furthest from the default, a switch the other way, the last choice."""
+    declared = blender_session.addon().native.settings
+    cli = blender_session.addon().addon.cli
+    scene = blender_session.empty_file()
+    argv, expected = ["bake"], {}
+    for setting in declared.EXPOSED_SETTINGS:
+        if setting.exposed.option is None:   # set by its pair's option, below
+            continue
+        if setting.kind is bool:
+            expected[setting.name] = not setting.default
+            argv.append(("--" if expected[setting.name] else "--no-")
+                        + setting.exposed.option[2:])
+            continue
+        expected[setting.name] = (setting.choices[-1].identifier if setting.choices else
+                                  setting.minimum if setting.maximum is None else
+                                  setting.maximum)
+        argv += [setting.exposed.option, str(expected[setting.name])]
+    for pair in declared.SETTING_PAIRS:
+        low = declared.SETTINGS_BY_NAME[pair.lower].minimum
+        high = declared.SETTINGS_BY_NAME[pair.upper].maximum
+        expected.update({pair.lower: low, pair.upper: high})
+        argv += [pair.option, str(low), str(high)]
+    assert set(expected) == {setting.name for setting in declared.EXPOSED_SETTINGS}
+    cli._apply_bake_options(cli._parser().parse_args(argv), scene.luxel)
+    for name, value in expected.items():
+        assert value != declared.SETTINGS_BY_NAME[name].default, name
+        assert getattr(scene.luxel, name) == as_stored(value), name
+
+
 def test_render_panel_shows_the_subdivision_settings_that_apply():
     scene = room_scene()
     thresholds = {"subdivision_shadow_min", "subdivision_shadow_max"}
@@ -443,7 +514,7 @@ def test_cli_rejects_a_bad_argument_and_a_scene_without_light(capsys):
 def test_cli_rejects_bad_visibility_and_subdivision_options_with_one_line(capsys):
     scene = room_scene()
     for argv, option in ((["--subdivision-level", "9"], "--subdivision-level"),
-                         (["--subdivision-level", "0"], "--subdivision-level"),
+                         (["--subdivision-level", "-1"], "--subdivision-level"),
                          (["--shadow-range", "0.9", "0.1"], "--shadow-range"),
                          (["--shadow-range", "0.5", "1.5"], "--shadow-range"),
                          (["--shadow-range", "0.5"], "--shadow-range"),

@@ -309,9 +309,12 @@ def test_a_texel_density_of_zero_cannot_be_set_and_is_refused_on_the_command_lin
     scene = room_scene()
     scene.luxel.texel_density = 0.0
     assert scene.luxel.texel_density == pytest.approx(0.01)   # the property's minimum
-    for value in ("0", "-3", "nan", "inf"):
+    for value, problem in (("0", "must be at least 0.01 texels per metre"),
+                           ("0.0099", "must be at least 0.01 texels per metre"),
+                           ("-3", "must be at least 0.01 texels per metre"),
+                           ("nan", "must be a finite number"), ("inf", "must be a finite number")):
         assert run_cli(["bake", "--density", value]) == 2, value
-        assert "--density must be a positive number" in one_line(capsys), value
+        assert f"argument --density: {problem}" in one_line(capsys), value
     assert not scene.luxel.stats.valid
 
 

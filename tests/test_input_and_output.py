@@ -70,7 +70,7 @@ def test_negative_emission_and_bad_lights_are_refused():
 
 def test_bad_settings_are_refused(ctx):
     scene = Scene(**two_quads())
-    with pytest.raises(SettingsError, match="texel density"):
+    with pytest.raises(SettingsError, match="texel_density"):
         Solver(scene, Settings(texel_density=0.0), ctx=ctx)
     with pytest.raises(SettingsError, match="shoot_level"):
         Solver(scene, Settings(shoot_level=9), ctx=ctx)

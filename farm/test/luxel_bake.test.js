@@ -38,18 +38,35 @@ function commandLine(parameters) {
             ...parameters.argsBefore, parameters.blendfile, ...parameters.args];
 }
 
-// Luxel's command line, read from addon/cli.py: the command, the subcommand and its options.
+// Luxel's command line, read from addon/cli.py (the command, the subcommand and its own
+// options) and native/settings.py (the options of the solver's settings, add_options).
 const CLI = fs.readFileSync(nodePath.join(ROOT, "addon", "cli.py"), "utf8");
-const SHARED = CLI.slice(CLI.indexOf("def _add_bake_options"));
+const SETTINGS = fs.readFileSync(nodePath.join(ROOT, "native", "settings.py"), "utf8");
 const BAKE_OPTIONS = new Set([
     ...[...CLI.matchAll(/\bbake\.add_argument\("(--[\w-]+)"/g)].map((m) => m[1]),
-    ...[...SHARED.slice(0, SHARED.indexOf("\ndef ", 1)).matchAll(/add_argument\("(--[\w-]+)"/g)]
-        .map((m) => m[1]),
+    ...[...SETTINGS.matchAll(/\boption="(--[\w-]+)"/g)].map((m) => m[1]),
 ]);
+
+// A setting as native/settings.py declares it: the text from its Setting(name="...") on.
+function declared(name) {
+    const start = SETTINGS.indexOf(`Setting(name="${name}"`);
+    assert.ok(start >= 0, `native/settings.py declares no ${name}`);
+    const text = SETTINGS.slice(start, SETTINGS.indexOf("Setting(name=", start + 1));
+    const number = (key) => {
+        const found = text.match(new RegExp(`\\b${key}=([\\d.]+)`));
+        return found ? Number(found[1]) : undefined;
+    };
+    return { option: text.match(/\boption="(--[\w-]+)"/)[1], default: number("default"),
+             minimum: number("minimum"), maximum: number("maximum"),
+             softMaximum: number("soft_maximum"), digits: number("digits") };
+}
 
 test("Luxel's command line has the names the job uses", () => {
     assert.match(CLI, /register_cli_command\("luxel", execute\)/);
     assert.match(CLI, /add_parser\("bake"/);
+    assert.match(CLI, /\badd_options\(bake\)/);
+    assert.deepEqual([declared("texel_density").option, declared("threshold").option],
+                     ["--density", "--threshold"]);
     for (const option of ["--density", "--threshold", "--output", "--save"]) {
         assert.ok(BAKE_OPTIONS.has(option), `luxel bake has no ${option}`);
     }
@@ -75,12 +92,17 @@ test("JOB_TYPE: label and settings as Flamenco's AvailableJobSetting allows", ()
         { blendfiles: ["string", true], output_root: ["string", true], density: ["float", true],
           threshold: ["float", true], save: ["bool", false] });
     assert.equal(byKey.output_root.subtype, "dir_path");
-    // The form starts at Luxel's own defaults (native/solver.py, Settings).
-    const solver = fs.readFileSync(nodePath.join(ROOT, "native", "solver.py"), "utf8");
-    const luxelDefault = (name) =>
-        Number(solver.match(new RegExp(`\\b${name}: float = ([\\d.]+)`))[1]);
+    // The form starts at Luxel's own defaults, within its ranges (native/settings.py).
+    const density = declared("texel_density");
+    const threshold = declared("threshold");
     assert.deepEqual([byKey.density.default, byKey.threshold.default, byKey.save.default],
-                     [luxelDefault("texel_density"), luxelDefault("threshold"), false]);
+                     [density.default, threshold.default, false]);
+    // (Copied out of the script's realm, whose objects have another prototype.)
+    assert.deepEqual({ ...byKey.density.propargs }, { min: density.minimum,
+                                                      soft_max: density.softMaximum });
+    assert.deepEqual({ ...byKey.threshold.propargs }, { min: threshold.minimum,
+                                                        max: threshold.maximum,
+                                                        precision: threshold.digits });
     // The add-on fills a setting named "blendfile" with its own packed copy of the open file.
     assert.equal(byKey.blendfile, undefined);
 });
@@ -236,6 +258,21 @@ test("two jobs of the same files, even created the same second, write disjoint f
     }
 });
 
+test("density and threshold: taken at the ends of Luxel's ranges, refused just beyond", () => {
+    const density = declared("texel_density");
+    const threshold = declared("threshold");
+    for (const change of [{ density: density.minimum }, { threshold: threshold.minimum },
+                          { threshold: threshold.maximum }]) {
+        assert.equal(submit({ ...BASE, blendfiles: "/p/a.blend", ...change }).tasks.length, 1);
+    }
+    for (const [change, key] of [[{ density: density.minimum - 1e-9 }, "density"],
+                                 [{ threshold: threshold.minimum - 1e-9 }, "threshold"],
+                                 [{ threshold: threshold.maximum + 1e-9 }, "threshold"]]) {
+        assert.throws(() => submit({ ...BASE, blendfiles: "/p/a.blend", ...change }),
+                      (error) => error.message.includes(`"${key}"`), JSON.stringify(change));
+    }
+});
+
 test("refused: a missing or invalid setting, named in the error, and no task made", () => {
     const cases = [
         [{ blendfiles: undefined }, "blendfiles", /missing/],
@@ -249,13 +286,13 @@ test("refused: a missing or invalid setting, named in the error, and no task mad
         [{ output_root: undefined }, "output_root", /missing/],
         [{ output_root: "  " }, "output_root", /missing/],
         [{ density: undefined }, "density", /missing/],
-        [{ density: "20" }, "density", /must be a positive number/],
-        [{ density: 0 }, "density", /must be a positive number/],
-        [{ density: -4 }, "density", /must be a positive number/],
+        [{ density: "20" }, "density", /must be a number of at least 0.01 texels per metre/],
+        [{ density: 0 }, "density", /must be a number of at least 0.01/],
+        [{ density: -4 }, "density", /must be a number of at least 0.01/],
         [{ threshold: null }, "threshold", /missing/],
-        [{ threshold: 1 }, "threshold", /must be a number in \[0, 1\)/],
-        [{ threshold: -0.01 }, "threshold", /must be a number in \[0, 1\)/],
-        [{ threshold: "0.01" }, "threshold", /must be a number in \[0, 1\)/],
+        [{ threshold: 1 }, "threshold", /must be a number from 0 to 0.99/],
+        [{ threshold: -0.01 }, "threshold", /must be a number from 0 to 0.99/],
+        [{ threshold: "0.01" }, "threshold", /must be a number from 0 to 0.99/],
         [{ save: "yes" }, "save", /must be true or false/],
     ];
     for (const [change, key, problem] of cases) {

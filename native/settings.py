@@ -1,0 +1,294 @@
+"""Every bake setting, declared once: its type, default, range, unit and help.
+
+The solver's ``Settings`` and ``Settings.validate()``, the Blender properties
+(addon/properties.py) and the command-line options (addon/cli.py, ``python -m native``) are
+all made from ``SETTINGS``, so that they cannot disagree; tests/test_settings.py and
+tests/test_blender_addon.py check that they do not. Ranges include their ends, since Blender's
+properties can hold no other kind.
+"""
+import argparse
+from dataclasses import dataclass, make_dataclass
+import math
+
+from .errors import SettingsError
+
+
+@dataclass(frozen=True)
+class Choice:
+    """One of the names a setting of kind str takes."""
+    identifier: str
+    label: str
+    help: str
+
+
+@dataclass(frozen=True)
+class Exposed:
+    """How Blender (``scene.luxel``) and the command line offer a setting."""
+    label: str
+    option: str | None         # the command-line flag; None where a SettingPair's sets it
+    subtype: str = 'NONE'      # how Blender draws it: 'FACTOR' a 0-1 slider, 'PIXEL' in px
+    digits: int | None = None  # decimals Blender shows, where its 2 or 3 hide the value
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One of the solver's settings: a field of Settings, and where exposed a Blender
+    property and a command-line option."""
+    name: str
+    kind: type                      # bool, int, float, or str: one of ``choices``
+    default: object
+    help: str                       # Blender's tooltip, and the option's --help
+    unit: str = ""                  # after a number, in words: "texels per metre"
+    minimum: float | None = None    # None: no limit
+    maximum: float | None = None
+    soft_maximum: float | None = None  # the top of Blender's slider: a hint, not a limit
+    choices: tuple = ()             # of Choice
+    exposed: Exposed | None = None  # None: the solver's own (tests, benchmarks)
+
+    @property
+    def identifiers(self):
+        return tuple(choice.identifier for choice in self.choices)
+
+    @property
+    def allowed(self):
+        """The values the setting takes, in words ("" when any of its kind will do)."""
+        unit = f" {self.unit}" if self.unit else ""
+        if self.choices:
+            return f"one of {', '.join(self.identifiers)}"
+        if self.minimum is not None and self.maximum is not None:
+            return f"from {self.minimum:g} to {self.maximum:g}{unit}"
+        if self.minimum is not None:
+            return f"at least {self.minimum:g}{unit}"
+        if self.maximum is not None:
+            return f"at most {self.maximum:g}{unit}"
+        return ""
+
+    def problem(self, value):
+        """What is wrong with ``value`` for this setting, or None."""
+        if self.kind is float and not math.isfinite(value):
+            return f"must be a finite number, got {_shown(value)}"
+        fits = (value in self.identifiers if self.choices else
+                (self.minimum is None or value >= self.minimum)
+                and (self.maximum is None or value <= self.maximum))
+        return None if fits else f"must be {self.allowed}, got {_shown(value)}"
+
+
+def _shown(value):
+    """A value as a message quotes it: names in quotes, numbers as they print."""
+    return repr(value) if isinstance(value, str) else str(value)
+
+
+@dataclass(frozen=True)
+class SettingPair:
+    """Two settings bounding an interval: the lower must stay below the upper. One
+    command-line option sets both."""
+    lower: str
+    upper: str
+    option: str
+    help: str
+
+    def problem(self, lower, upper):
+        return None if lower < upper else (f"{self.lower} must be below {self.upper}, "
+                                           f"got {lower} and {upper}")
+
+
+PROJECTION_CHOICES = (
+    Choice(identifier="HEMICUBE", label="Hemicube",
+           help="Five rasterised faces around each shooter (the paper's baseline)"),
+    Choice(identifier="HEMISPHERE", label="Hemisphere",
+           help="Stereographic projection per vertex: one render, straight edges stay "
+           "straight"),
+    Choice(identifier="NONLINEAR", label="Non-Linear",
+           help="Non-linear hemisphere projection (Gascuel et al. 2008): exact spherical "
+           "triangles in one render"),
+)
+SUBDIVISION_CHOICES = (
+    Choice(identifier="NONE", label="None", help="Each texel gathers light at its centre"),
+    Choice(identifier="ADAPTIVE", label="Adaptive",
+           help="Refine triangles partly in shadow, and the triangles casting the shadow: "
+           "sharper shadow edges for less work than Regular"),
+    Choice(identifier="REGULAR", label="Regular",
+           help="Refine every triangle: each texel gathers light at 4^level points"),
+)
+PROJECTIONS = tuple(choice.identifier for choice in PROJECTION_CHOICES)
+SUBDIVISIONS = tuple(choice.identifier for choice in SUBDIVISION_CHOICES)
+MAX_SUBDIVISION_LEVEL = 3
+
+# Settings has its fields in this order (and report.json its settings).
+SETTINGS = (
+    Setting(name="texel_density", kind=float, default=20.0, unit="texels per metre",
+            minimum=0.01, soft_maximum=1000.0, help="Lightmap texels per metre of surface",
+            exposed=Exposed(label="Texel Density", option="--density")),
+    Setting(name="max_atlas_size", kind=int, default=4096, unit="texels", minimum=16,
+            soft_maximum=16384, help="Largest lightmap side; more images when exceeded",
+            exposed=Exposed(label="Max Image Size", option="--max-image-size",
+                            subtype='PIXEL')),
+    Setting(name="padding", kind=int, default=2, unit="texels", minimum=1,
+            help="Texels between charts"),
+    Setting(name="hemicube_resolution", kind=int, default=128, unit="texels", minimum=8,
+            maximum=4096, help="Texels on a side of each hemicube face; the hemisphere "
+            "projections' maps are twice as wide",
+            exposed=Exposed(label="Hemicube Resolution", option="--hemicube",
+                            subtype='PIXEL')),
+    Setting(name="shoot_level", kind=int, default=2, minimum=0, maximum=6,
+            help="Mip level shot from: a shooter spans 2^level texels",
+            exposed=Exposed(label="Shoot Level", option="--shoot-level")),
+    Setting(name="threshold", kind=float, default=0.01, minimum=0.0, maximum=0.99,
+            help="Stop when this fraction of the emitted power is left unshot (sunlight that "
+            "misses the scene does not count)",
+            exposed=Exposed(label="Threshold", option="--threshold", subtype='FACTOR',
+                            digits=4)),
+    Setting(name="max_shots", kind=int, default=10000, unit="shots", minimum=0,
+            help="Stop after this many shots",
+            exposed=Exposed(label="Max Shots", option="--shots")),
+    Setting(name="memory_limit", kind=int, default=4 << 30, unit="bytes", minimum=1,
+            help="GPU memory Luxel may use"),
+    Setting(name="sky_directions", kind=int, default=256, unit="suns", minimum=1,
+            maximum=65536, help="Suns that stand in for a uniform sky (the world colour)"),
+    Setting(name="projection", kind=str, default="HEMICUBE", choices=PROJECTION_CHOICES,
+            help="How visibility is sampled around each shooter",
+            exposed=Exposed(label="Projection", option="--projection")),
+    # Section 5.2 of the paper.
+    Setting(name="neighbour_visibility", kind=bool, default=True,
+            help="A receiver is visible when any of the 3x3 visibility texels around it sees "
+            "it, against dark speckles where the visibility map undersamples",
+            exposed=Exposed(label="Neighbour Visibility", option="--neighbour-visibility")),
+    # ADAPTIVE finds each triangle's shadowed share of texels with occlusion queries, and
+    # refines the triangles casting those shadows too.
+    Setting(name="subdivision", kind=str, default="NONE", choices=SUBDIVISION_CHOICES,
+            help="Where texels gather light at several points",
+            exposed=Exposed(label="Subdivision", option="--subdivision")),
+    # Level 0 gathers at the texel's centre, as NONE does (the paper's Table 2 has NONE at 0).
+    Setting(name="subdivision_level", kind=int, default=2, minimum=0,
+            maximum=MAX_SUBDIVISION_LEVEL, help="A texel at level k gathers light at 4^k points",
+            exposed=Exposed(label="Subdivision Level", option="--subdivision-level")),
+    Setting(name="subdivision_shadow_min", kind=float, default=0.02, minimum=0.0, maximum=1.0,
+            help="Adaptive refines a triangle when at least this share of its texels is in "
+            "shadow",
+            exposed=Exposed(label="Shadow Min", option=None, subtype='FACTOR')),
+    Setting(name="subdivision_shadow_max", kind=float, default=0.98, minimum=0.0, maximum=1.0,
+            help="Adaptive refines a triangle when at most this share of its texels is in "
+            "shadow",
+            exposed=Exposed(label="Shadow Max", option=None, subtype='FACTOR')),
+    # The paper's future work (Section 5.1).
+    Setting(name="adaptive_shoot_level", kind=bool, default=False,
+            help="Shooters with little unshot energy shoot from coarser blocks of texels: "
+            "fewer, larger shots",
+            exposed=Exposed(label="Adaptive Shoot Level", option="--adaptive-shoot-level")),
+    Setting(name="shooters_per_selection", kind=int, default=8, unit="shots", minimum=1,
+            maximum=64, help="Shots per GPU read-back; 1 is the paper's one by one"),
+    # result() adds it; the ledger and the unshot fraction leave it out.
+    Setting(name="ambient", kind=bool, default=True,
+            help="Add the light still unshot after its first bounce as even ambient light (an "
+            "estimate, like the unshot share it stands for): rooms look converged far sooner",
+            exposed=Exposed(label="Ambient Term", option="--ambient")),
+    Setting(name="profile", kind=bool, default=False,
+            help="Wait for the GPU after each phase for exact timings"),
+)
+SETTING_PAIRS = (
+    SettingPair(lower="subdivision_shadow_min", upper="subdivision_shadow_max",
+                option="--shadow-range", help="Adaptive refines the triangles whose shadowed "
+                "share of texels is in [MIN, MAX]"),
+)
+EXPOSED_SETTINGS = tuple(setting for setting in SETTINGS if setting.exposed)
+SETTINGS_BY_NAME = {setting.name: setting for setting in SETTINGS}
+
+
+def _validate(settings):
+    """Raise SettingsError naming the first setting out of its range."""
+    for setting in SETTINGS:
+        problem = setting.problem(getattr(settings, setting.name))
+        if problem:
+            raise SettingsError(f"{setting.name} {problem}")
+    for pair in SETTING_PAIRS:
+        problem = pair.problem(getattr(settings, pair.lower), getattr(settings, pair.upper))
+        if problem:
+            raise SettingsError(problem)
+
+
+Settings = make_dataclass(
+    "Settings", [(setting.name, setting.kind, setting.default) for setting in SETTINGS],
+    namespace={"validate": _validate, "__module__": __name__,   # for pickle and repr
+               "__doc__": "The solver's settings, one field per entry of "
+               "native.settings.SETTINGS (its help, unit and range)."})
+
+
+# ---------------------------------------------------------------------- command line
+class _CheckedValue(argparse.Action):
+    """Stores an option's value once its setting's declaration accepts it."""
+
+    def __init__(self, option_strings, dest, setting, **kwargs):
+        super().__init__(option_strings, dest, **kwargs)
+        self.setting = setting
+
+    def __call__(self, parser, namespace, value, option_string=None):
+        problem = self.setting.problem(value)
+        if problem:
+            raise argparse.ArgumentError(self, problem)
+        setattr(namespace, self.dest, value)
+
+
+class _CheckedPair(argparse.Action):
+    """Stores MIN and MAX into a SettingPair's two settings, each checked and in order."""
+
+    def __init__(self, option_strings, dest, pair, **kwargs):
+        super().__init__(option_strings, dest, **kwargs)
+        self.pair = pair
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        for name, value in zip((self.pair.lower, self.pair.upper), values):
+            problem = SETTINGS_BY_NAME[name].problem(value)
+            if problem:
+                raise argparse.ArgumentError(self, f"{name} {problem}")
+        problem = self.pair.problem(*values)
+        if problem:
+            raise argparse.ArgumentError(self, problem)
+        setattr(namespace, self.pair.lower, values[0])
+        setattr(namespace, self.pair.upper, values[1])
+
+
+# --help's placeholder for a number; a name's option lists its choices instead.
+_METAVARS = {int: "N", float: "X"}
+
+
+def _option_help(what, allowed, default):
+    """--help's line: what the option does, its range and, where there is one, its default."""
+    parts = [what, allowed] + ([] if default is None else [f"default {default}"])
+    return "; ".join(part for part in parts if part)
+
+
+def add_options(parser, defaults=None):
+    """An option on ``parser`` for every exposed setting, checked against its declaration as
+    it is parsed; the values land under the settings' names. ``defaults`` (a Settings) is
+    what an option left out parses to, named in the help; without it, None."""
+    def default_of(name):
+        return None if defaults is None else getattr(defaults, name)
+
+    for setting in EXPOSED_SETTINGS:
+        option, default = setting.exposed.option, default_of(setting.name)
+        line = _option_help(setting.help, setting.allowed, default)
+        if option is None:   # a SettingPair's option sets it
+            parser.set_defaults(**{setting.name: default})
+        elif setting.kind is bool:   # --ambient and --no-ambient, whatever the default
+            parser.add_argument(option, dest=setting.name, default=default, help=line,
+                                action=argparse.BooleanOptionalAction)
+        else:
+            parser.add_argument(option, dest=setting.name, default=default, help=line,
+                                type=setting.kind, choices=setting.identifiers or None,
+                                metavar=_METAVARS.get(setting.kind), action=_CheckedValue,
+                                setting=setting)
+    for pair in SETTING_PAIRS:
+        lower = SETTINGS_BY_NAME[pair.lower]
+        defaults_shown = (None if defaults is None else
+                          f"{default_of(pair.lower)} {default_of(pair.upper)}")
+        parser.add_argument(pair.option, nargs=2, type=lower.kind, metavar=("MIN", "MAX"),
+                            default=argparse.SUPPRESS, action=_CheckedPair, pair=pair,
+                            help=_option_help(pair.help, f"each {lower.allowed}, MIN below "
+                                              "MAX", defaults_shown))
+
+
+def given_settings(args):
+    """{name: value} of the settings an ``add_options`` parse holds, those left out (None)
+    left out."""
+    values = {setting.name: getattr(args, setting.name) for setting in EXPOSED_SETTINGS}
+    return {name: value for name, value in values.items() if value is not None}
