@@ -18,7 +18,7 @@ import numpy as np
 
 from ..native import SettingsError, write_png
 from ..native.compare import error_map, lightmap_error, texel_noise
-from ..native.report import speed_error_plot, write_report
+from ..native.report import speed_error_svg, write_report
 from ..native.snapshots import Snapshots
 from ..native.views import compare_views, failure_image
 from .bake import BakeJob
@@ -79,7 +79,9 @@ def compare_with_cycles(context, options, progress=None):
 
     progress(0.95, "report")
     curves = {"luxel": luxel_points, "cycles": cycles_points}
-    speed_error_plot(os.path.join(directory, "speed_error.png"), curves)
+    # report.html draws the plot inline; the file is for taking the figure elsewhere.
+    with open(os.path.join(directory, "speed_error.svg"), "w", encoding="utf-8") as figure:
+        figure.write(speed_error_svg(curves))
     stats = scene.luxel.stats
     report = {
         "title": f"Luxel against Cycles: {_scene_label(scene)}",
@@ -106,7 +108,7 @@ def compare_with_cycles(context, options, progress=None):
         "objects": objects,
         "views": view_entries,
         "curves": curves,
-        "curve_plot": "speed_error.png",
+        "curve_plot": "speed_error.svg",
     }
     write_report(directory, report)
     _store_summary(scene, report, directory)

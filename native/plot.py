@@ -1,234 +1,209 @@
-"""A small line-plot rasteriser in numpy that writes a PNG, for reports made inside Blender,
-where matplotlib and PIL are not available. Text comes from a built-in 5x7 bitmap font."""
+"""Log-log line plots as SVG text, for reports made inside Blender, where matplotlib is not
+available: the page embeds the SVG and the browser draws its text."""
 from dataclasses import dataclass
+import html
 import math
 
 import numpy as np
 
-from .output import write_png
-
-# 5x7 glyphs: seven rows of five bits each (bit 4 is the left column), as hex byte pairs.
-# The rows of the descending letters start at the x-height, two rows lower than the rest.
-_DESCENDERS = "gpqy"
-_FONT_SOURCE = """
-0 0e11131519110e 1 040c040404040e 2 0e11010204081f 3 1f02040201110e 4 02060a121f0202
-5 1f101e0101110e 6 0608101e11110e 7 1f010204080808 8 0e11110e11110e 9 0e11110f01020c
-A 0e11111f111111 B 1e11111e11111e C 0e11101010110e D 1c12111111121c E 1f10101e10101f
-F 1f10101e101010 G 0e11101711110f H 1111111f111111 I 0e04040404040e J 0702020202120c
-K 11121418141211 L 1010101010101f M 111b1515111111 N 11111915131111 O 0e11111111110e
-P 1e11111e101010 Q 0e11111115120d R 1e11111e141211 S 0f10100e01011e T 1f040404040404
-U 1111111111110e V 11111111110a04 W 1111111515150a X 11110a040a1111 Y 1111110a040404
-Z 1f01020408101f a 00000e010f110f b 1010161911111e c 00000e1010110e d 01010d1311110f
-e 00000e111f100e f 0609081c080808 g 0f1111110f010e h 10101619111111 i 04000c0404040e
-j 0200060202120c k 10101214181412 l 0c04040404040e m 00001a15151111 n 00001619111111
-o 00000e1111110e p 1e1111111e1010 q 0f1111110f0101 r 00001619101010 s 00000e100e011e
-t 08081c08080906 u 0000111111130d v 00001111110a04 w 0000111115150a x 0000110a040a11
-y 111111110f010e z 00001f0204081f . 00000000000c0c , 000000000c0408 - 0000001f000000
-+ 0004041f040400 % 18190204081303 ( 02040808080402 ) 08040202020408 / 00010204081000
-= 00001f001f0000 : 000c0c000c0c00 _ 0000000000001f ? 0e110102040004 ' 04040800000000
-"""
-
-
-def _parse_font(source):
-    tokens = source.split()
-    glyphs = {" ": np.zeros((9, 5), bool)}
-    for character, digits in zip(tokens[0::2], tokens[1::2]):
-        glyph = glyphs[character] = np.zeros((9, 5), bool)
-        first_row = 2 if character in _DESCENDERS else 0
-        for row in range(7):
-            bits = int(digits[2 * row:2 * row + 2], 16)
-            glyph[first_row + row] = [(bits >> (4 - column)) & 1 for column in range(5)]
-    return glyphs
-
-
-_GLYPHS = _parse_font(_FONT_SOURCE)
-TEXT_SCALE = 2
-TEXT_HEIGHT = 7 * TEXT_SCALE  # cap height; descenders hang below it
-BACKGROUND, INK = (255, 255, 255), (40, 40, 40)
-GRID, MINOR_GRID = (222, 222, 222), (240, 240, 240)
+FONT_SIZE = 13
+# The browser measures the text; layout only needs a safe guess at its width.
+CHARACTER_WIDTH = 0.6 * FONT_SIZE
+INK, GRID, MINOR_GRID = "#282828", "#dedede", "#f0f0f0"
+MARKER_SIZE = 7
+LINE_WIDTH = 2.5
+# A text baseline this far below a point centres the label's digits on it.
+BASELINE_DROP = 0.35 * FONT_SIZE
 
 
 @dataclass
 class Series:
-    """One polyline: its legend label, data points and an RGB colour of 0..255 ints."""
+    """One polyline: its legend label, data points and a CSS colour such as "#d62728"."""
     label: str
     xs: list
     ys: list
-    colour: tuple
+    colour: str
+
+
+@dataclass(frozen=True)
+class Tick:
+    value: float
+    label: str
+
+
+@dataclass(frozen=True)
+class DecadeScale:
+    """A log axis rounded out to whole decades, with its labelled decade ticks and the
+    unlabelled 2..9 ticks between them."""
+    low: float
+    high: float
+    major: list
+    minor: list
 
 
 @dataclass(frozen=True)
 class Axis:
-    """Maps data to pixel coordinates: ``low`` lands on ``first_pixel`` and ``high`` on
-    ``last_pixel``, proportionally to log10 of the value on a log axis. For the vertical
-    axis first_pixel is the bottom row, so larger values land higher in the image."""
+    """Maps data to SVG coordinates in proportion to log10 of the value: ``low`` lands on
+    ``first`` and ``high`` on ``last``. For the vertical axis ``first`` is the bottom edge,
+    so larger values land higher."""
     low: float
     high: float
-    log: bool
-    first_pixel: int
-    last_pixel: int
+    first: float
+    last: float
 
-    def to_pixel(self, values):
-        scale = np.log10 if self.log else np.asarray
-        t = (scale(values) - scale(self.low)) / (scale(self.high) - scale(self.low))
-        return self.first_pixel + t * (self.last_pixel - self.first_pixel)
+    def position(self, values):
+        t = np.log10(np.asarray(values, float) / self.low) / math.log10(self.high / self.low)
+        return self.first + t * (self.last - self.first)
 
 
-def text_width(text):
-    """Pixel width of ``text`` as draw_text draws it."""
-    return max(len(text) * 6 - 1, 0) * TEXT_SCALE
+@dataclass(frozen=True)
+class Box:
+    left: float
+    top: float
+    right: float
+    bottom: float
+
+    def holds(self, xs, ys):
+        """How many of the points (xs, ys) lie inside."""
+        return int(np.count_nonzero((xs >= self.left) & (xs <= self.right)
+                                    & (ys >= self.top) & (ys <= self.bottom)))
 
 
-def _paint(image, mask, top, left, colour):
-    """Set the pixels where ``mask`` is true, placed at (top, left), clipped to the image."""
-    height, width = image.shape[:2]
-    rows = slice(max(top, 0), min(top + mask.shape[0], height))
-    columns = slice(max(left, 0), min(left + mask.shape[1], width))
-    clipped = mask[rows.start - top:rows.stop - top, columns.start - left:columns.stop - left]
-    image[rows, columns][clipped] = colour
-
-
-def draw_text(image, text, left, top, colour=INK):
-    """Draw ``text`` with its top-left corner at (left, top); unknown characters show as ?."""
-    glyphs = [_GLYPHS.get(character, _GLYPHS["?"]) for character in text]
-    if not glyphs:
-        return
-    spaced = np.hstack([np.hstack([glyph, np.zeros((9, 1), bool)]) for glyph in glyphs])[:, :-1]
-    mask = spaced.repeat(TEXT_SCALE, axis=0).repeat(TEXT_SCALE, axis=1)
-    _paint(image, mask, int(top), int(left), colour)
-
-
-def _rectangle(image, left, top, right, bottom, colour, filled=False):
-    """Inclusive pixel bounds; an outline one pixel wide unless filled."""
-    mask = np.ones((bottom - top + 1, right - left + 1), bool)
-    if not filled:
-        mask[1:-1, 1:-1] = False
-    _paint(image, mask, top, left, colour)
-
-
-def _polyline(image, xs, ys, colour, width=2.5):
-    """Anti-aliased: coverage falls off over one pixel from the line's edge; the coverage of
-    all segments is merged by maximum so the joints do not darken."""
-    coverage = np.zeros(image.shape[:2])
-    rows, columns = np.mgrid[0:image.shape[0], 0:image.shape[1]]
-    reach = width / 2 + 1
-    for x0, y0, x1, y1 in zip(xs[:-1], ys[:-1], xs[1:], ys[1:]):
-        left, right = int(max(min(x0, x1) - reach, 0)), int(max(x0, x1) + reach) + 1
-        top, bottom = int(max(min(y0, y1) - reach, 0)), int(max(y0, y1) + reach) + 1
-        px, py = columns[top:bottom, left:right], rows[top:bottom, left:right]
-        dx, dy = x1 - x0, y1 - y0
-        t = np.clip(((px - x0) * dx + (py - y0) * dy) / max(dx * dx + dy * dy, 1e-12), 0, 1)
-        distance = np.hypot(px - (x0 + t * dx), py - (y0 + t * dy))
-        segment = np.clip(width / 2 + 0.5 - distance, 0, 1)
-        np.maximum(coverage[top:bottom, left:right], segment,
-                   out=coverage[top:bottom, left:right])
-    blended = image * (1 - coverage[..., None]) + np.asarray(colour) * coverage[..., None]
-    image[...] = np.round(blended).astype(np.uint8)
-
-
-def _range_and_ticks(values, log):
-    """Axis ends rounded out (to whole decades, or to a nice step) and the (major, minor)
-    ticks between them, each major tick with its label."""
-    low, high = float(np.min(values)), float(np.max(values))
-    if log:
-        first, last = math.floor(math.log10(low)), math.ceil(math.log10(high))
-        if first == last:
-            first, last = first - 1, last + 1
-        stride = math.ceil((last - first) / 8)
-        major = [(10.0 ** k, _decade_label(k)) for k in range(first, last + 1, stride)]
-        # Unlabelled 2..9 ticks only while they do not crowd the axis.
-        minor = ([m * 10.0 ** k for k in range(first, last) for m in range(2, 10)]
-                 if last - first <= 6 else [])
-        return 10.0 ** first, 10.0 ** last, major, minor
-    span = high - low or abs(high) or 1.0
-    exponent = math.floor(math.log10(span / 5))
-    step = min((m * 10.0 ** exponent for m in (1, 2, 5, 10) if m * 10.0 ** exponent >= span / 5))
-    first, last = math.floor(low / step), math.ceil(high / step)
+def decade_scale(values):
+    """Axis ends at the whole decades around ``values`` (positive), one more on each side when
+    they share a decade, and at most nine labelled decades."""
+    first = math.floor(math.log10(float(np.min(values))))
+    last = math.ceil(math.log10(float(np.max(values))))
     if first == last:
         first, last = first - 1, last + 1
-    decimals = max(0, -math.floor(math.log10(step)))
-    major = [(k * step, f"{k * step:.{decimals}f}") for k in range(first, last + 1)]
-    return first * step, last * step, major, []
+    stride = math.ceil((last - first) / 8)
+    major = [Tick(10.0 ** k, _decade_label(k)) for k in range(first, last + 1, stride)]
+    # Unlabelled 2..9 ticks only while they do not crowd the axis.
+    minor = ([m * 10.0 ** k for k in range(first, last) for m in range(2, 10)]
+             if last - first <= 6 else [])
+    return DecadeScale(10.0 ** first, 10.0 ** last, major, minor)
 
 
 def _decade_label(exponent):
     return f"{10.0 ** exponent:.{max(0, -exponent)}f}" if -3 <= exponent <= 4 else f"1e{exponent}"
 
 
-def line_plot(path, series, x_label, y_label, title="", log_x=True, log_y=True,
-              size=(720, 460)):
-    """Draw ``series`` (a list of Series) into a ``size`` = (width, height) PNG at ``path``.
-    Points that are not finite, or not positive on a log axis, are skipped; a series left
-    with none is listed in the legend but not drawn. Returns the (x, y) Axis mappings used.
-    Raises ValueError if no series has a point to draw."""
-    width, height = size
+def _text_width(text):
+    return len(text) * CHARACTER_WIDTH
+
+
+def _number(value):
+    return f"{value:.2f}"
+
+
+def _text(text, x, y, anchor="start"):
+    return (f'<text x="{_number(x)}" y="{_number(y)}" text-anchor="{anchor}">'
+            f"{html.escape(text)}</text>")
+
+
+def _line(x1, y1, x2, y2, colour, width=1):
+    return (f'<line x1="{_number(x1)}" y1="{_number(y1)}" x2="{_number(x2)}" '
+            f'y2="{_number(y2)}" stroke="{colour}" stroke-width="{width}"/>')
+
+
+def _marker(x, y, colour):
+    return (f'<rect x="{_number(x - MARKER_SIZE / 2)}" y="{_number(y - MARKER_SIZE / 2)}" '
+            f'width="{MARKER_SIZE}" height="{MARKER_SIZE}" fill="{colour}"/>')
+
+
+def log_log_plot(series, *, x_label, y_label, title="", width=720, height=460):
+    """An SVG document (a string, also fit to embed in HTML) of ``series`` (a list of Series)
+    on log-log axes. Points that are not finite and positive are skipped; a series left with
+    none is listed in the legend but not drawn. Raises ValueError if no series has a point to
+    draw."""
     drawable = []
     for one in series:
         xs, ys = np.asarray(one.xs, float).ravel(), np.asarray(one.ys, float).ravel()
-        keep = np.isfinite(xs) & np.isfinite(ys)
-        keep &= (xs > 0 if log_x else True) & (ys > 0 if log_y else True)
+        keep = np.isfinite(xs) & np.isfinite(ys) & (xs > 0) & (ys > 0)
         drawable.append((xs[keep], ys[keep]))
     if not any(len(xs) for xs, _ in drawable):
         raise ValueError("no series has a finite point to plot"
-                         + (" (log axes need positive values)" if log_x or log_y else ""))
-    x_low, x_high, x_major, x_minor = _range_and_ticks(
-        np.concatenate([xs for xs, _ in drawable]), log_x)
-    y_low, y_high, y_major, y_minor = _range_and_ticks(
-        np.concatenate([ys for _, ys in drawable]), log_y)
+                         " (log axes need positive values)")
+    x_scale = decade_scale(np.concatenate([xs for xs, _ in drawable]))
+    y_scale = decade_scale(np.concatenate([ys for _, ys in drawable]))
 
-    left = max(text_width(label) for _, label in y_major) + 16
-    right, top, bottom = width - 32, 2 * TEXT_HEIGHT + 28, height - 2 * TEXT_HEIGHT - 26
-    x_axis = Axis(x_low, x_high, log_x, left, right)
-    y_axis = Axis(y_low, y_high, log_y, bottom, top)
-    image = np.full((height, width, 3), BACKGROUND, np.uint8)
+    frame = Box(left=max(_text_width(tick.label) for tick in y_scale.major) + 16,
+                top=2 * FONT_SIZE + 30, right=width - 32, bottom=height - 2 * FONT_SIZE - 28)
+    x_axis = Axis(x_scale.low, x_scale.high, frame.left, frame.right)
+    y_axis = Axis(y_scale.low, y_scale.high, frame.bottom, frame.top)
 
-    for value in x_minor:
-        image[top:bottom, int(round(x_axis.to_pixel(value)))] = MINOR_GRID
-    for value in y_minor:
-        image[int(round(y_axis.to_pixel(value))), left:right] = MINOR_GRID
-    for value, label in x_major:
-        column = int(round(x_axis.to_pixel(value)))
-        image[top:bottom, column] = GRID
-        image[bottom:bottom + 6, column] = INK
-        draw_text(image, label, column - text_width(label) // 2, bottom + 9)
-    for value, label in y_major:
-        row = int(round(y_axis.to_pixel(value)))
-        image[row, left:right] = GRID
-        image[row, left - 5:left] = INK
-        draw_text(image, label, left - 9 - text_width(label), row - TEXT_HEIGHT // 2)
-    _rectangle(image, left, top, right, bottom, INK)
-    draw_text(image, title, (width - text_width(title)) // 2, 8)
-    draw_text(image, y_label, 8, top - TEXT_HEIGHT - 10)
-    draw_text(image, x_label, (left + right - text_width(x_label)) // 2, bottom + TEXT_HEIGHT + 16)
+    grid = [_line(x, frame.top, x, frame.bottom, MINOR_GRID)
+            for x in x_axis.position(x_scale.minor)]
+    grid += [_line(frame.left, y, frame.right, y, MINOR_GRID)
+             for y in y_axis.position(y_scale.minor)]
+    ticks = []
+    for tick in x_scale.major:
+        x = x_axis.position(tick.value)
+        grid.append(_line(x, frame.top, x, frame.bottom, GRID))
+        ticks += [_line(x, frame.bottom, x, frame.bottom + 6, INK),
+                  _text(tick.label, x, frame.bottom + 9 + FONT_SIZE, anchor="middle")]
+    for tick in y_scale.major:
+        y = y_axis.position(tick.value)
+        grid.append(_line(frame.left, y, frame.right, y, GRID))
+        ticks += [_line(frame.left - 5, y, frame.left, y, INK),
+                  _text(tick.label, frame.left - 9, y + BASELINE_DROP, anchor="end")]
+    labels = [_text(title, width / 2, 8 + FONT_SIZE, anchor="middle"),
+              _text(y_label, 8, frame.top - 12),
+              _text(x_label, (frame.left + frame.right) / 2,
+                    frame.bottom + 2 * FONT_SIZE + 22, anchor="middle")]
 
-    before_series = image.copy()
+    lines, markers, drawn_xs, drawn_ys = [], [], [], []
     for one, (xs, ys) in zip(series, drawable):
-        columns, rows = x_axis.to_pixel(xs), y_axis.to_pixel(ys)
-        _polyline(image, columns, rows, one.colour)
-        for column, row in zip(np.round(columns).astype(int), np.round(rows).astype(int)):
-            _rectangle(image, column - 3, row - 3, column + 3, row + 3, one.colour, filled=True)
+        if not len(xs):
+            continue
+        columns, rows = x_axis.position(xs), y_axis.position(ys)
+        points = " ".join(f"{_number(x)},{_number(y)}" for x, y in zip(columns, rows))
+        lines.append(f'<polyline points="{points}" fill="none" stroke="{one.colour}" '
+                     f'stroke-width="{LINE_WIDTH}" stroke-linejoin="round"/>')
+        markers += [_marker(x, y, one.colour) for x, y in zip(columns, rows)]
+        along_xs, along_ys = _points_along(columns, rows)
+        drawn_xs.append(along_xs)
+        drawn_ys.append(along_ys)
 
-    series_pixels = (image != before_series).any(axis=2)
-    _legend(image, series, (left, top, right, bottom), series_pixels)
-    write_png(path, image)
-    return x_axis, y_axis
+    legend = _legend(series, frame, np.concatenate(drawn_xs), np.concatenate(drawn_ys))
+    frame_outline = (f'<rect class="frame" x="{_number(frame.left)}" y="{_number(frame.top)}" '
+                     f'width="{_number(frame.right - frame.left)}" '
+                     f'height="{_number(frame.bottom - frame.top)}" fill="none" '
+                     f'stroke="{INK}"/>')
+    body = grid + [frame_outline] + ticks + labels + lines + markers + legend
+    return (f'<svg xmlns="http://www.w3.org/2000/svg" class="plot" width="{width}" '
+            f'height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif" '
+            f'font-size="{FONT_SIZE}" fill="{INK}">\n'
+            f'<rect width="{width}" height="{height}" fill="white"/>\n'
+            + "\n".join(body) + "\n</svg>\n")
 
 
-def _legend(image, series, frame, series_pixels):
-    """A boxed key in whichever corner of the frame covers the fewest series pixels."""
-    left, top, right, bottom = frame
-    line_height = TEXT_HEIGHT + 6
-    box_width = 46 + max(text_width(one.label) for one in series)
+def _points_along(xs, ys):
+    """Points about a unit apart along the polyline through (xs, ys), its vertices included."""
+    along_xs, along_ys = [xs[:1]], [ys[:1]]
+    for x0, y0, x1, y1 in zip(xs[:-1], ys[:-1], xs[1:], ys[1:]):
+        t = np.linspace(0, 1, int(math.hypot(x1 - x0, y1 - y0)) + 2)[1:]
+        along_xs.append(x0 + t * (x1 - x0))
+        along_ys.append(y0 + t * (y1 - y0))
+    return np.concatenate(along_xs), np.concatenate(along_ys)
+
+
+def _legend(series, frame, drawn_xs, drawn_ys):
+    """A boxed key in whichever corner of the frame covers the least of the drawn lines."""
+    line_height = FONT_SIZE + 7
+    box_width = 46 + max(_text_width(one.label) for one in series)
     box_height = 8 + line_height * len(series)
-    corners = [(x, y) for y in (top + 8, bottom - 8 - box_height)
-               for x in (right - 8 - box_width, left + 8)]
-    x, y = min(corners, key=lambda corner: series_pixels[
-        corner[1]:corner[1] + box_height, corner[0]:corner[0] + box_width].sum())
-    _rectangle(image, x, y, x + box_width, y + box_height, BACKGROUND, filled=True)
-    _rectangle(image, x, y, x + box_width, y + box_height, INK)
+    corners = [Box(left=x, top=y, right=x + box_width, bottom=y + box_height)
+               for y in (frame.top + 8, frame.bottom - 8 - box_height)
+               for x in (frame.right - 8 - box_width, frame.left + 8)]
+    box = min(corners, key=lambda corner: corner.holds(drawn_xs, drawn_ys))
+    parts = [f'<rect class="legend" x="{_number(box.left)}" y="{_number(box.top)}" '
+             f'width="{_number(box_width)}" height="{_number(box_height)}" fill="white" '
+             f'stroke="{INK}"/>']
     for index, one in enumerate(series):
-        row = y + 5 + index * line_height
-        middle = row + TEXT_HEIGHT // 2
-        _rectangle(image, x + 8, middle - 1, x + 30, middle, one.colour, filled=True)
-        _rectangle(image, x + 16, middle - 3, x + 22, middle + 3, one.colour, filled=True)
-        draw_text(image, one.label, x + 38, row)
+        middle = box.top + 4 + line_height * (index + 0.5)
+        parts += [_line(box.left + 8, middle, box.left + 30, middle, one.colour,
+                        width=LINE_WIDTH),
+                  _marker(box.left + 19, middle, one.colour),
+                  _text(one.label, box.left + 38, middle + BASELINE_DROP)]
+    return parts

@@ -1,6 +1,7 @@
 """The Luxel-against-Cycles comparison report: report.json (strict JSON: NaN and infinities
-become null) and report.html, one static page with inline CSS beside the images the caller
-wrote. Every string from the report is HTML-escaped; optional keys may be missing."""
+become null) and report.html, one static page with inline CSS and the speed-against-error
+plot as inline SVG, beside the images the caller wrote. Every string from the report is
+HTML-escaped; optional keys may be missing."""
 import html
 import json
 import math
@@ -8,9 +9,9 @@ from pathlib import Path
 from urllib.parse import quote
 
 from .output import _atomic_write
-from .plot import Series, line_plot
+from .plot import Series, log_log_plot
 
-LUXEL_COLOUR, CYCLES_COLOUR = (214, 39, 40), (31, 119, 180)
+LUXEL_COLOUR, CYCLES_COLOUR = "#d62728", "#1f77b4"
 
 _STYLE = """
 body { font-family: sans-serif; margin: 2em auto; max-width: 1400px; color: #222; }
@@ -18,7 +19,7 @@ table { border-collapse: collapse; margin: 0.5em 0 1.5em; }
 th, td { border: 1px solid #ccc; padding: 0.3em 0.6em; text-align: left; vertical-align: top; }
 th { background: #f2f2f2; }
 td.number { text-align: right; font-variant-numeric: tabular-nums; }
-img.plot { max-width: 100%; }
+svg.plot { max-width: 100%; height: auto; }
 img.view { width: 240px; display: block; }
 img.error-map { width: 256px; image-rendering: pixelated; display: block; }
 .scale { display: inline-block; width: 256px; height: 1em; vertical-align: middle;
@@ -27,17 +28,18 @@ img.error-map { width: 256px; image-rendering: pixelated; display: block; }
 """
 
 
-def speed_error_plot(path, curves):
-    """Log-log PNG of relative RMS against seconds for the "luxel" and "cycles" curves.
-    Raises ValueError (from line_plot) if neither has a positive point."""
+def speed_error_svg(curves):
+    """Log-log SVG of relative RMS against seconds for the "luxel" and "cycles" curves.
+    Raises ValueError (from log_log_plot) if neither has a positive point."""
     def series(label, points, colour):
         points = points or []
         def values(key):
             return [math.nan if point.get(key) is None else point[key] for point in points]
         return Series(label, values("seconds"), values("rel_rms"), colour)
-    line_plot(path, [series("Luxel", curves.get("luxel"), LUXEL_COLOUR),
-                     series("Cycles", curves.get("cycles"), CYCLES_COLOUR)],
-              "seconds", "relative RMS against the reference", title="Speed against error")
+    return log_log_plot([series("Luxel", curves.get("luxel"), LUXEL_COLOUR),
+                         series("Cycles", curves.get("cycles"), CYCLES_COLOUR)],
+                        x_label="seconds", y_label="relative RMS against the reference",
+                        title="Speed against error")
 
 
 def write_report(directory, report):
@@ -94,12 +96,27 @@ def _number(value, **options):
     return ("number", _format(value, **options))
 
 
+def _address(path):
+    return html.escape(quote(str(path), safe="/"))
+
+
 def _image(path, alt, css_class):
     if not path:
         return '<span class="meta">none</span>'
-    source = html.escape(quote(str(path), safe="/"))
-    return (f'<a href="{source}"><img class="{css_class}" src="{source}" '
+    return (f'<a href="{_address(path)}"><img class="{css_class}" src="{_address(path)}" '
             f'alt="{html.escape(alt)}"></a>')
+
+
+def _link(path):
+    return f'<a href="{_address(path)}">{html.escape(str(path))}</a>'
+
+
+def _speed_error_figure(curves):
+    try:
+        return f"<p>{speed_error_svg(curves)}</p>\n"
+    except ValueError:
+        # A run whose errors are all missing still deserves its page.
+        return '<p class="meta">No curve has a positive time and error to plot.</p>\n'
 
 
 def _html(report):
@@ -135,9 +152,11 @@ def _html(report):
     parts = [f"<h1>{title}</h1>\n<p class=\"meta\">{meta}</p>\n",
              "<h2>Summary</h2>\n", _table(["Measure", "Value"], summary)]
 
-    if report.get("curve_plot"):
-        parts += ["<h2>Speed against error</h2>\n",
-                  f"<p>{_image(report['curve_plot'], 'speed against error', 'plot')}</p>\n"]
+    curves = report.get("curves") or {}
+    if curves:
+        parts += ["<h2>Speed against error</h2>\n", _speed_error_figure(curves)]
+        if report.get("curve_plot"):
+            parts.append(f'<p class="meta">As a file: {_link(report["curve_plot"])}</p>\n')
 
     if views:
         rows = []
@@ -172,7 +191,6 @@ def _html(report):
               _image(item.get("error_map"), f"{item.get('name', '')} error map", "error-map")]
              for item in report["objects"]]))
 
-    curves = report.get("curves") or {}
     for key, label, count in [("luxel", "Luxel", "shots"), ("cycles", "Cycles", "samples")]:
         if curves.get(key):
             parts += [f"<h2>{label} convergence</h2>\n", _table(

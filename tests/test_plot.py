@@ -1,112 +1,147 @@
-"""The numpy line-plot rasteriser, checked by decoding the PNG it writes."""
+"""The SVG log-log plot, parsed as XML and checked against positions computed here."""
 import math
-import struct
-import zlib
+import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 import pytest
 
-from native.plot import Axis, Series, draw_text, line_plot
+from native.plot import Series, log_log_plot
 
-RED, BLUE, GREEN = (200, 20, 20), (20, 40, 210), (10, 160, 30)
-
-
-def read_png(path):
-    """(H, W, 3) uint8 from an 8-bit RGB PNG whose rows all use filter type 0."""
-    data = open(path, "rb").read()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    position, compressed, header = 8, b"", None
-    while position < len(data):
-        length, kind = struct.unpack(">I4s", data[position:position + 8])
-        body = data[position + 8:position + 8 + length]
-        assert zlib.crc32(kind + body) & 0xFFFFFFFF == struct.unpack(
-            ">I", data[position + 8 + length:position + 12 + length])[0]
-        if kind == b"IHDR":
-            header = struct.unpack(">IIBBBBB", body)
-        elif kind == b"IDAT":
-            compressed += body
-        position += 12 + length
-    width, height, depth, colour_type = header[:4]
-    assert (depth, colour_type) == (8, 2)
-    rows = np.frombuffer(zlib.decompress(compressed), np.uint8).reshape(height, 1 + 3 * width)
-    assert (rows[:, 0] == 0).all()
-    return rows[:, 1:].reshape(height, width, 3)
+RED, BLUE, GREEN = "#c81414", "#1428d2", "#0aa01e"
+SVG = "{http://www.w3.org/2000/svg}"
 
 
-def pixels_of(image, colour):
-    return np.argwhere((image == np.array(colour, np.uint8)).all(axis=2))  # (row, column)
+def parse(svg):
+    root = ElementTree.fromstring(svg)
+    assert root.tag == f"{SVG}svg"
+    return root
 
 
-def test_axis_maps_log_and_linear_values_proportionally():
-    assert Axis(1.0, 100.0, True, 0, 100).to_pixel(10.0) == pytest.approx(50.0)
-    assert Axis(0.0, 10.0, False, 100, 200).to_pixel(2.5) == pytest.approx(125.0)
-    # A vertical axis runs from its bottom row up: larger values land on smaller rows.
-    assert Axis(1.0, 1000.0, True, 400, 100).to_pixel(10.0) == pytest.approx(300.0)
+def frame_of(root):
+    """(left, top, right, bottom) of the plot box, the rectangle the SVG marks as its frame."""
+    rect = root.find(f"{SVG}rect[@class='frame']")
+    left, top = float(rect.get("x")), float(rect.get("y"))
+    return left, top, left + float(rect.get("width")), top + float(rect.get("height"))
 
 
-def test_the_png_has_the_requested_size_and_a_white_background(tmp_path):
-    path = tmp_path / "plot.png"
-    line_plot(path, [Series("a", [1, 2, 3], [3, 1, 2], RED)], "x", "y", size=(400, 300))
-    image = read_png(path)
-    assert image.shape == (300, 400, 3)
-    assert (image[0, 0] == 255).all() and (image[-1, -1] == 255).all()
-    assert len(pixels_of(image, RED)) > 100
+def polyline_points(root, colour):
+    lines = [line for line in root.iter(f"{SVG}polyline") if line.get("stroke") == colour]
+    assert len(lines) <= 1
+    if not lines:
+        return np.empty((0, 2))
+    return np.array([[float(v) for v in pair.split(",")]
+                     for pair in lines[0].get("points").split()])
 
 
-def test_a_rising_series_lies_up_and_right_of_a_falling_one(tmp_path):
-    path = tmp_path / "plot.png"
-    line_plot(path, [Series("rising", [10, 100], [10, 100], RED),
-                     Series("falling", [1, 10], [10, 1], BLUE)], "x", "y")
-    image = read_png(path)
-    rising, falling = pixels_of(image, RED).mean(axis=0), pixels_of(image, BLUE).mean(axis=0)
-    assert rising[1] > falling[1] + 100     # further right
-    assert rising[0] < falling[0] - 50      # higher up: a smaller row
+def texts(root):
+    return {element.text: element for element in root.iter(f"{SVG}text")}
 
 
-def test_a_marker_lands_at_the_log_proportional_position_inside_the_frame(tmp_path):
-    """Axes from 1 to 100 (the data's whole decades): x = y = 10 is the frame's centre."""
-    path = tmp_path / "plot.png"
-    x_axis, y_axis = line_plot(path, [Series("frame", [1, 2, 100], [100, 1, 3], RED),
-                                      Series("centre", [10], [10], BLUE)], "x", "y")
-    assert (x_axis.low, x_axis.high, y_axis.low, y_axis.high) == (1, 100, 1, 100)
-    image = read_png(path)
-    # The frame is the dark outline: the rows and columns holding the most dark pixels.
-    dark = (image < 80).all(axis=2)
-    rows = np.flatnonzero(dark.sum(axis=1) > dark.sum(axis=1).max() // 2)
-    columns = np.flatnonzero(dark.sum(axis=0) > dark.sum(axis=0).max() // 2)
-    top, bottom, left, right = rows[0], rows[-1], columns[0], columns[-1]
-    assert (left, right, bottom, top) == (x_axis.first_pixel, x_axis.last_pixel,
-                                          y_axis.first_pixel, y_axis.last_pixel)
-    column, row = round((left + right) / 2), round((top + bottom) / 2)
-    assert x_axis.to_pixel(10) == pytest.approx((left + right) / 2)
-    marker = image[row - 2:row + 3, column - 2:column + 3]
-    assert (marker == np.array(BLUE, np.uint8)).all()
+def log_position(value, low, high, first, last):
+    """Where ``value`` lands on an axis from ``low`` at ``first`` to ``high`` at ``last``."""
+    fraction = (math.log10(value) - math.log10(low)) / (math.log10(high) - math.log10(low))
+    return first + fraction * (last - first)
 
 
-def test_axes_round_out_to_decades_or_nice_steps(tmp_path):
-    x_axis, y_axis = line_plot(tmp_path / "plot.png",
-                               [Series("a", [0.03, 0.5, 4.0], [0.13, 0.5, 0.87], RED)],
-                               "x", "y", log_x=True, log_y=False)
-    assert (x_axis.low, x_axis.high) == pytest.approx((0.01, 10.0))
-    assert 0.0 <= y_axis.low <= 0.13 and 0.87 <= y_axis.high <= 1.0
+def test_the_svg_is_well_formed_with_the_requested_size():
+    svg = log_log_plot([Series("a", [1, 2, 3], [3, 1, 2], RED)], x_label="x", y_label="y",
+                       width=400, height=300)
+    root = parse(svg)
+    assert (root.get("width"), root.get("height"), root.get("viewBox")) == (
+        "400", "300", "0 0 400 300")
 
 
-def test_non_positive_values_are_skipped_on_log_axes(tmp_path):
-    x_axis, y_axis = line_plot(tmp_path / "plot.png",
-                               [Series("a", [-1, 0, 2, 5], [1, 2, 3, 40], RED)], "x", "y")
-    assert (x_axis.low, x_axis.high) == pytest.approx((1.0, 10.0))
-    assert (y_axis.low, y_axis.high) == pytest.approx((1.0, 100.0))
+def test_points_and_ticks_map_to_the_frame_through_log_axes_of_whole_decades():
+    xs, ys = [3.0, 20.0, 400.0], [0.05, 0.005, 0.002]
+    root = parse(log_log_plot([Series("a", xs, ys, RED)], x_label="x", y_label="y"))
+    left, top, right, bottom = frame_of(root)
+    # The data spans 3..400 and 0.002..0.05: the axes round out to 1..1000 and 0.001..0.1.
+    expected = [(log_position(x, 1, 1000, left, right), log_position(y, 0.001, 0.1, bottom, top))
+                for x, y in zip(xs, ys)]
+    assert polyline_points(root, RED) == pytest.approx(np.array(expected), abs=0.01)
+    labels = texts(root)
+    for value, label in [(1, "1"), (10, "10"), (100, "100"), (1000, "1000")]:
+        assert float(labels[label].get("x")) == pytest.approx(
+            log_position(value, 1, 1000, left, right), abs=0.01)
+        assert float(labels[label].get("y")) > bottom
+    for value, label in [(0.001, "0.001"), (0.01, "0.01"), (0.1, "0.1")]:
+        assert float(labels[label].get("x")) < left
+        # The baseline sits a little below the tick, so the digits centre on it.
+        row = log_position(value, 0.001, 0.1, bottom, top)
+        assert row < float(labels[label].get("y")) < row + 10
 
 
-def test_a_series_without_finite_points_is_in_the_legend_only(tmp_path):
-    path = tmp_path / "plot.png"
-    line_plot(path, [Series("data", [1, 10, 100], [1, 5, 2], RED),
-                     Series("nothing", [math.nan, math.inf], [1, 2], GREEN)], "x", "y")
-    image = read_png(path)
-    swatch = pixels_of(image, GREEN)
-    assert 0 < len(swatch) < 200
-    # The legend swatch is one short horizontal stroke with a marker, not a plotted line.
-    assert np.ptp(swatch[:, 1]) <= 30 and np.ptp(swatch[:, 0]) <= 8
+def test_data_in_one_decade_gets_a_decade_each_side():
+    """A single point at (1, 1) shares a decade with itself: axes 0.1..10, the frame's centre."""
+    root = parse(log_log_plot([Series("one", [1.0], [1.0], RED)], x_label="x", y_label="y"))
+    left, top, right, bottom = frame_of(root)
+    assert polyline_points(root, RED) == pytest.approx(
+        np.array([[(left + right) / 2, (top + bottom) / 2]]), abs=0.01)
+    assert {"0.1", "1", "10"} <= set(texts(root))
+
+
+def test_wide_ranges_label_at_most_nine_decades_in_exponent_form():
+    root = parse(log_log_plot([Series("wide", [1e-12, 1e6], [0.2, 0.3], RED)],
+                              x_label="x", y_label="y"))
+    labels = set(texts(root))
+    # 18 decades: every third one labelled.
+    assert {"1e-12", "1e-9", "0.001", "1", "1000", "1e6"} <= labels
+    assert not {"1e-11", "1e-10", "0.01", "10"} & labels
+
+
+def test_title_axis_labels_and_legend_are_text():
+    root = parse(log_log_plot([Series("Luxel", [1, 10], [1, 0.1], RED),
+                               Series("Cycles", [5, 50], [1, 0.2], BLUE)],
+                              x_label="seconds", y_label="relative RMS", title="Speed"))
+    assert {"Luxel", "Cycles", "seconds", "relative RMS", "Speed"} <= set(texts(root))
+
+
+def test_labels_are_escaped():
+    label = 'a < b & "c"'
+    svg = log_log_plot([Series(label, [1, 10], [1, 2], RED)], x_label="x <", y_label="&")
+    assert "a &lt; b &amp; &quot;c&quot;" in svg and label not in svg
+    assert {label, "x <", "&"} <= set(texts(parse(svg)))
+
+
+def test_non_positive_and_non_finite_points_are_skipped():
+    root = parse(log_log_plot([Series("a", [-1, 0, 2, 5, math.nan], [1, 2, 3, 40, 1], RED)],
+                              x_label="x", y_label="y"))
+    left, top, right, bottom = frame_of(root)
+    expected = [(log_position(x, 1, 10, left, right), log_position(y, 1, 100, bottom, top))
+                for x, y in [(2, 3), (5, 40)]]
+    assert polyline_points(root, RED) == pytest.approx(np.array(expected), abs=0.01)
+
+
+def test_a_series_without_drawable_points_is_in_the_legend_only():
+    root = parse(log_log_plot([Series("data", [1, 10, 100], [1, 5, 2], RED),
+                               Series("nothing", [math.nan, -1], [1, 2], GREEN)],
+                              x_label="x", y_label="y"))
+    assert len(polyline_points(root, GREEN)) == 0 and len(polyline_points(root, RED)) == 3
+    assert "nothing" in texts(root)
+    legend = root.find(f"{SVG}rect[@class='legend']")
+    left, top = float(legend.get("x")), float(legend.get("y"))
+    right, bottom = left + float(legend.get("width")), top + float(legend.get("height"))
+    green = [element for element in root.iter()
+             if GREEN in (element.get("stroke"), element.get("fill"))]
+    assert green
+    for element in green:
+        x = float(element.get("x", element.get("x1")))
+        y = float(element.get("y", element.get("y1")))
+        assert left <= x <= right and top <= y <= bottom
+
+
+def test_the_legend_keeps_off_the_lines():
+    """A line from corner to corner of the frame: the legend takes a corner it misses."""
+    root = parse(log_log_plot([Series("diagonal", [1, 100], [1, 100], RED)],
+                              x_label="x", y_label="y"))
+    legend = root.find(f"{SVG}rect[@class='legend']")
+    left, top = float(legend.get("x")), float(legend.get("y"))
+    right, bottom = left + float(legend.get("width")), top + float(legend.get("height"))
+    (x0, y0), (x1, y1) = polyline_points(root, RED)
+    t = np.linspace(0, 1, 1000)
+    along_x, along_y = x0 + t * (x1 - x0), y0 + t * (y1 - y0)
+    assert not ((along_x >= left) & (along_x <= right)
+                & (along_y >= top) & (along_y <= bottom)).any()
 
 
 @pytest.mark.parametrize("series", [
@@ -114,24 +149,6 @@ def test_a_series_without_finite_points_is_in_the_legend_only(tmp_path):
     [Series("nan", [math.nan], [1.0], RED)],
     [Series("non-positive", [0.0, -1.0], [1.0, 2.0], RED), Series("empty", [], [], BLUE)],
 ])
-def test_nothing_drawable_is_refused(tmp_path, series):
-    with pytest.raises(ValueError):
-        line_plot(tmp_path / "plot.png", series, "x", "y")
-    assert not (tmp_path / "plot.png").exists()
-
-
-def test_the_font_has_a_distinct_glyph_for_every_character_labels_need():
-    def rendered(text):
-        image = np.full((24, 16, 3), 255, np.uint8)
-        draw_text(image, text, 1, 1)
-        return (image < 128).all(axis=2)
-
-    characters = ("0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
-                  ".,-+%()/=:_")
-    unknown = rendered("\u2603")
-    glyphs = [rendered(character) for character in characters]
-    for character, glyph in zip(characters, glyphs):
-        assert glyph.any() and not (glyph == unknown).all(), character
-    distinct = {glyph.tobytes() for glyph in glyphs}
-    assert len(distinct) == len(characters)
-    assert not rendered(" ").any()
+def test_nothing_drawable_is_refused(series):
+    with pytest.raises(ValueError, match="no series has a finite point to plot"):
+        log_log_plot(series, x_label="x", y_label="y")

@@ -1,11 +1,12 @@
 """The comparison report: strict JSON and an escaped, self-contained HTML page."""
 import json
 import math
+import re
 
 import pytest
 
-from native.report import CYCLES_COLOUR, LUXEL_COLOUR, speed_error_plot, write_report
-from test_plot import pixels_of, read_png
+from native.report import CYCLES_COLOUR, LUXEL_COLOUR, speed_error_svg, write_report
+from test_plot import parse, polyline_points, texts
 
 AWKWARD_NAME = '<b>&"'
 
@@ -45,7 +46,7 @@ def synthetic_report():
                    "cycles": [{"samples": 16, "seconds": 4.0, "rms": 0.3, "rel_rms": 0.15},
                               {"samples": 256, "seconds": 60.0, "rms": 0.06,
                                "rel_rms": math.nan}]},
-        "curve_plot": "speed_error.png",
+        "curve_plot": "speed_error.svg",
     }
 
 
@@ -76,12 +77,14 @@ def test_the_html_shows_every_image_and_object_and_escapes_names(tmp_path):
             assert f'src="{view[key]}"' in page
     for item in report["objects"]:
         assert f'src="{item["error_map"]}"' in page
-    assert 'src="speed_error.png"' in page
+    assert 'href="speed_error.svg"' in page
     assert "&lt;b&gt;&amp;&quot;" in page and AWKWARD_NAME not in page
     assert "Floor" in page and "View 1" in page
     assert "1.25 %" in page             # the relative RMS as a percentage
     assert "image-rendering: pixelated" in page
-    assert "<script" not in page and "http" not in page
+    # Nothing is fetched: the only address is the inline SVG's namespace name.
+    assert "<script" not in page
+    assert "http" not in page.replace('xmlns="http://www.w3.org/2000/svg"', "")
 
 
 def test_missing_optional_keys_still_write_a_page(tmp_path):
@@ -90,19 +93,38 @@ def test_missing_optional_keys_still_write_a_page(tmp_path):
         del report[key]
     json_path, html_path = write_report(tmp_path / "new folder", report)
     page = html_path.read_text()
-    assert "Cornell box" in page and "<img" not in page
+    assert "Cornell box" in page and "<img" not in page and "<svg" not in page
     assert json.loads(json_path.read_text())["title"] == "Cornell box"
     write_report(tmp_path, {})
     write_report(tmp_path, {"views": None, "settings": None, "curves": None, "objects": None})
     assert (tmp_path / "report.html").read_text().startswith("<!DOCTYPE html>")
 
 
-def test_the_speed_error_plot_puts_the_faster_curve_left(tmp_path):
-    path = tmp_path / "speed_error.png"
-    speed_error_plot(path, synthetic_report()["curves"])
-    image = read_png(path)
-    luxel, cycles = pixels_of(image, LUXEL_COLOUR), pixels_of(image, CYCLES_COLOUR)
-    assert len(luxel) > 50 and len(cycles) > 20
-    assert luxel[:, 1].mean() < cycles[:, 1].mean()
+def inline_svgs(page):
+    return [parse(svg) for svg in re.findall(r"<svg\b.*?</svg>", page, flags=re.DOTALL)]
+
+
+def test_the_html_draws_the_speed_error_plot_inline(tmp_path):
+    page = write_report(tmp_path, synthetic_report())[1].read_text()
+    [plot] = inline_svgs(page)
+    assert {"Luxel", "Cycles", "seconds", "relative RMS against the reference",
+            "Speed against error"} <= set(texts(plot))
+    assert len(polyline_points(plot, LUXEL_COLOUR)) == 2
+    # Cycles' second point has no error: only its first is drawn.
+    assert len(polyline_points(plot, CYCLES_COLOUR)) == 1
+
+
+def test_the_speed_error_plot_puts_the_faster_curve_left():
+    plot = parse(speed_error_svg(synthetic_report()["curves"]))
+    luxel, cycles = polyline_points(plot, LUXEL_COLOUR), polyline_points(plot, CYCLES_COLOUR)
+    assert luxel[:, 0].max() < cycles[:, 0].min()
     with pytest.raises(ValueError):
-        speed_error_plot(tmp_path / "empty.png", {"luxel": [], "cycles": []})
+        speed_error_svg({"luxel": [], "cycles": []})
+
+
+def test_curves_without_a_point_to_plot_still_write_a_page(tmp_path):
+    report = synthetic_report()
+    report["curves"] = {"luxel": [{"shots": 1, "seconds": 0.1, "rel_rms": math.nan}]}
+    page = write_report(tmp_path, report)[1].read_text()
+    assert "<svg" not in page and "No curve has a positive time and error" in page
+    assert "Luxel convergence" in page
