@@ -79,7 +79,7 @@ def test_per_object_errors_agree_with_cycles(comparison):
     the light is an emitting sheet (Back Faces Auto): its mean was 57 % below Cycles' with
     front faces only, 16-21 % below while the gap's light bounced shot by shot; since the
     gap's bounces come in closed form, 8 % above these 64 samples (its texels over the light
-    within 0.5 % of the value between infinite plates; see BENCHMARKS.md)."""
+    within 0.5 % of the value between infinite plates; see docs/benchmarks-log.md)."""
     _, _, report, *_ = comparison
     objects = {o["name"]: o for o in report["objects"]}
     assert set(objects) == {"floor", "ceiling", "back_wall", "red_wall", "green_wall", "light",
