@@ -210,7 +210,10 @@ def table1():
     """The paper's Figure 1 on our scenes: per-step time of every scene and size (hemicube)."""
     for path in sorted(RESULTS.glob("table1-*.json")):
         run = json.loads(path.read_text())
-        rows = [row for row in run["rows"] if row["projection"] == "HEMICUBE"]
+        # Cycles' Table 1 runs (table1-cycles-*) have no projections: not this figure's.
+        rows = [row for row in run["rows"] if row.get("projection") == "HEMICUBE"]
+        if not rows:
+            continue
         figure, axis = plt.subplots(figsize=(10, 4.4))
         labels = [f"{row['scene']}\n{row['size']}\n{row['texels'] / 1e6:.2f} M" for row in rows]
         bottom = [0.0] * len(rows)
