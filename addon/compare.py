@@ -17,10 +17,10 @@ import bpy
 import numpy as np
 
 from ..native import SettingsError, write_png
-from ..native.compare import error_map, lightmap_error, texel_noise
-from ..native.report import speed_error_svg, write_report
-from ..native.snapshots import Snapshots
-from ..native.views import compare_views, failure_image
+from ..native.evaluation.texel_error import error_map, lightmap_error, texel_noise
+from ..native.evaluation.report import speed_error_svg, write_report
+from ..native.evaluation.snapshots import Snapshots
+from ..native.evaluation.view_difference import compare_views, failure_image
 from .bake import BakeJob
 from .reference import cycles_reference, luxel_lightmap, receivers
 from .views import LUXEL_VIEW_SAMPLES, render_views
@@ -130,7 +130,7 @@ def summary_lines(report):
 # ------------------------------------------------------------------------------ Luxel bake
 class SnapshotBake:
     """A Luxel bake with its lightmaps kept at 1, 2, 4, ... shots and at the end
-    (native.snapshots), timed from the bake's start (export included, snapshots excluded)."""
+    (native.evaluation.snapshots), timed from the bake's start (export included, snapshots excluded)."""
 
     def __init__(self, job):
         self.snapshots = Snapshots(job.started)

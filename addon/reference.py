@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ..native.compare import texel_noise
+from ..native.evaluation.texel_error import texel_noise
 from .display import STATE_KEY, strip_display_nodes
 from .export import DEFAULT_ALBEDO
 from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, UV_MAP, image_name, snapshot_of
@@ -256,7 +256,7 @@ def object_means(reference, luxel_pages=None):
 
 def _standard_error(pixels, covered):
     """Standard error of the mean over ``covered`` from the texels' estimated noise (see
-    native.compare.texel_noise): a rough guide (within a factor of a few), for diagnostics,
+    native.evaluation.texel_error.texel_noise): a rough guide (within a factor of a few), for diagnostics,
     not a bound."""
     return texel_noise(pixels, covered) / np.sqrt(max(int(covered.sum()), 1))
 

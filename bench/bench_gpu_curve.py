@@ -28,7 +28,7 @@ from bench_equal_error import TARGETS, _time_to
 MAX_LEFT_OUT = 0.2
 from common import device_name, load_scene
 from native import Settings, Solver, create_context
-from native.snapshots import Snapshots
+from native.evaluation.snapshots import Snapshots
 
 
 def run(args):

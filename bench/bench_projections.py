@@ -40,7 +40,7 @@ import numpy as np
 from common import (ROOT, device_name, load_scene, reference_side, save_results,
                     shoot_level_for, texel_density_for_size)  # also puts the repo on sys.path
 from native import Settings, Solver, create_context
-from native.compare import lightmap_error
+from native.evaluation.texel_error import lightmap_error
 
 SCENES = ("columns", "cornell_box")
 REFERENCE = "HEMICUBE"

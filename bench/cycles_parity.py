@@ -16,7 +16,7 @@ import numpy as np
 
 from common import save_results  # also puts the repository on sys.path
 from native import Settings, Solver
-from native.compare import lightmap_error
+from native.evaluation.texel_error import lightmap_error
 from native.samples import CORNELL_LIGHT, cornell_box
 
 import bpy  # noqa: E402  (after numpy: bpy pins the same numpy)

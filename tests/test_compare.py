@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from native.compare import error_map, lightmap_error, texel_noise
+from native.evaluation.texel_error import error_map, lightmap_error, texel_noise
 
 
 def page(rgb, mask):

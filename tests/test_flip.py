@@ -1,4 +1,4 @@
-"""LDR-FLIP (native/flip.py) against FLIP's colour pipeline written out from the paper and the
+"""LDR-FLIP (native/evaluation/flip.py) against FLIP's colour pipeline written out from the paper and the
 reference source, not against the package's own output.
 
 For a constant-colour image FLIP's feature pipeline sees no edges or points (its derivative
@@ -13,7 +13,7 @@ FLIPConstants).
 import numpy as np
 import pytest
 
-from native.flip import FlipDifference, flip_ldr, pixels_per_degree
+from native.evaluation.flip import FlipDifference, flip_ldr, pixels_per_degree
 
 SIZE = 64
 PPD = SIZE / 37.0

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from native.perceptual import compare, csf, tvi
+from native.evaluation.perceptual import compare, csf, tvi
 
 GAMMA = 2.2
 # Y row of the Adobe RGB (1998) -> XYZ matrix (Lindbloom), which pdiff's luminance uses.

@@ -5,7 +5,7 @@ import xml.etree.ElementTree as ElementTree
 import numpy as np
 import pytest
 
-from native.plot import Series, log_log_plot
+from native.evaluation.plot import Series, log_log_plot
 
 RED, BLUE, GREEN = "#c81414", "#1428d2", "#0aa01e"
 SVG = "{http://www.w3.org/2000/svg}"

@@ -13,7 +13,7 @@ import time
 import pytest
 
 import blender_session
-from native.compare import lightmap_error
+from native.evaluation.texel_error import lightmap_error
 
 bpy = blender_session.blender()
 reference = importlib.import_module(blender_session.MODULE + ".addon.reference")

@@ -5,7 +5,7 @@ import re
 
 import pytest
 
-from native.report import CYCLES_COLOUR, LUXEL_COLOUR, speed_error_svg, write_report
+from native.evaluation.report import CYCLES_COLOUR, LUXEL_COLOUR, speed_error_svg, write_report
 from test_plot import parse, polyline_points, texts
 
 AWKWARD_NAME = '<b>&"'

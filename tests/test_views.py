@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from native.output import tone_map
-from native.views import MIDDLE_GREY, compare_views, exposure_for, failure_image
+from native.evaluation.view_difference import MIDDLE_GREY, compare_views, exposure_for, failure_image
 
 
 def ramp(height=96, width=128):

@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from urllib.parse import quote
 
-from .output import _atomic_write
+from ..output import _atomic_write
 from .plot import Series, log_log_plot
 
 LUXEL_COLOUR, CYCLES_COLOUR = "#d62728", "#1f77b4"

@@ -8,7 +8,7 @@ per-pixel error in [0, 1]; 0 is no visible difference.
 
 Inputs are display images: float arrays (H, W, 3) of sRGB-encoded values in [0, 1], what a
 screen shows. The observer is set by pixels per degree of visual angle; pixels_per_degree()
-derives it from the field of view the image spans, as native/perceptual.py's Yee metric is set.
+derives it from the field of view the image spans, as perceptual.py's Yee metric is set.
 """
 from dataclasses import dataclass
 import math

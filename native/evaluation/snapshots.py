@@ -5,7 +5,7 @@ import time
 
 import numpy as np
 
-from .gpu import using
+from ..gpu import using
 
 
 class Snapshots:

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from .flip import FlipDifference, flip_ldr, pixels_per_degree
-from .output import tone_map
+from ..output import tone_map
 from .perceptual import PerceptualDifference, compare
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
