@@ -75,6 +75,19 @@ def number_surfaces(scene):
     return numbers, emitting
 
 
+def create_gpu_state(state):
+    """The programs and their constant uniforms, the albedo textures and the pages' maps."""
+    gl = state.gl
+    state.programs = create_programs(gl, state.settings)
+    state.fullscreen = {name: gl.vertex_array(state.programs[name], [])
+                        for name in ("block", "argmax", "patch", "light")}
+    set_constant_uniforms(state)
+    state.albedo_textures = albedo_textures(gl, state.scene)
+    size = (state.packed.width, state.packed.height)
+    state.pages = [allocate_page(gl, state.settings, size)
+                   for _ in range(state.packed.page_count)]
+
+
 def create_programs(gl, settings):
     programs = {
         "attributes": gl.program("raster.vert", "raster_attributes.frag", "raster.geom"),

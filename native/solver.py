@@ -200,15 +200,8 @@ class Solver:
         memory.check_memory(state.packed, settings, self._memory_bytes,
                             self._fits(state.packed), self._fits_at)
 
-        state.programs = preprocess.create_programs(gl, settings)
-        state.fullscreen = {name: gl.vertex_array(state.programs[name], [])
-                            for name in ("block", "argmax", "patch", "light")}
-        preprocess.set_constant_uniforms(state)
+        preprocess.create_gpu_state(state)   # programs, albedo textures, pages
         thin_gaps.set_constant_uniforms(state.programs["patch"])
-        state.albedo_textures = preprocess.albedo_textures(gl, scene)
-        size = (state.packed.width, state.packed.height)
-        state.pages = [preprocess.allocate_page(gl, settings, size)
-                       for _ in range(state.packed.page_count)]
         raster = preprocess.rasterize(state)
         self._slots = subdivision.prepare(state, raster, preprocess.RASTER_LAYOUT)
         if settings.subdivision == "REGULAR":

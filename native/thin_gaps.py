@@ -23,6 +23,16 @@ THIN_GAP = 0.1
 # of emission 0.1 of a texel left of a texel's centre measured 0.70, where the whole square
 # gives 0.6) (close).
 SHOWN_SQUARE = 0.5
+# A receiver faces a shooter across a gap when their normals' cosine is under minus this
+# (receive_patch.frag: across_thin_gap()).
+FACING_COSINE = 0.99
+# Receivers are looked for this many of the region's largest texels around it (near_thin_gap).
+NEAR_REACH = 3.0
+# Two albedos of 1 would keep the light for ever: the gap keeps at most this share of it at
+# each bounce (at most 1,000 times the light).
+MAX_KEPT = 0.999
+# An open edge is clipped this share of a texel inside its triangle (lit_by).
+EDGE_INSET = 1e-3
 
 # The band's cells (edge_band): the finest, at the edge, in gap heights, how much each next
 # one grows, and how far they reach each way (the band widens like 1 / sqrt(1 - p): 200 gap
@@ -281,10 +291,10 @@ def near_thin_gap(state, gaps, region, position, normal, texel_size):
         occupied = position[:, 3] > 0.0
         points, normals = position[occupied, :3], normal[occupied]
         largest = float(texel_size[occupied].max())   # a shooter has its strongest texel
-        gap, reach = 2.0 * THIN_GAP * largest, 3.0 * largest
+        gap, reach = 2.0 * THIN_GAP * largest, NEAR_REACH * largest
         receivers = gaps.receivers
         near = receivers.within(points.min(axis=0) - reach, points.max(axis=0) + reach)
-        facing = receivers.normals[near] @ normals.T < -0.99               # (near, points)
+        facing = receivers.normals[near] @ normals.T < -FACING_COSINE              # (near, points)
         # How far in front of each texel each plane lies: a sheet's own back face, at 0,
         # gets nothing from its front.
         heights = receivers.normals[near] @ points.T - receivers.offsets[near, None]
@@ -331,7 +341,7 @@ def close(state, gaps, shooter):
         corner = math.sqrt(0.5) * side   # how far a texel's square reaches from its point
         inside = np.nonzero(
             (height > state.bounds.epsilon) & (height < THIN_GAP * side)
-            & ((normal * offsets).sum(axis=1) < 0.0) & (normal @ n < -0.99)
+            & ((normal * offsets).sum(axis=1) < 0.0) & (normal @ n < -FACING_COSINE)
             & (np.linalg.norm(offsets, axis=1) < reach + 2.0 * side)
             & (u >= u_min - side) & (u <= u_max + side)
             & (v >= v_min - side) & (v <= v_max + side)
@@ -348,8 +358,7 @@ def close(state, gaps, shooter):
                    for point, half_t, half_b in zip(points, *halves)]
         shown_share = np.repeat([[share_under(middle, lit)] for middle in middles], 3, axis=1)
         albedo = texels.albedo[chosen].astype(np.float64)
-        # Two albedos of 1 would keep the light for ever: at most 1,000 times.
-        kept = np.minimum(albedo * shooter.albedo, 0.999)
+        kept = np.minimum(albedo * shooter.albedo, MAX_KEPT)
         if open_edges:
             # Along an open edge the band where the light leaks out (edge_band),
             # summed over the middle of the square chord by chord.
@@ -412,7 +421,7 @@ def lit_by(state, gaps, shooter):
             # whole texels), a rounding error to either side: it belongs to the texels of
             # its triangle, so it is clipped a thousandth of a texel inside the triangle.
             inward = (b - a) * (1j if turn > 0 else -1j)
-            inward *= 1e-3 / abs(inward)
+            inward *= EDGE_INSET / abs(inward)
             part = clipped_segment(a + inward, b + inward, rectangle)
             if part is not None:
                 # Its two ends and a point inside the triangle, which tells its side.
