@@ -13,7 +13,12 @@ from .errors import GLUnavailableError
 
 SHADER_DIR = Path(__file__).resolve().parent.parent / "shaders"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
+_COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.DOTALL)
+# "uniform [qualifiers] type name[, name ...];": the names, arrays' sizes left on them.
+_UNIFORM = re.compile(r"\buniform\s+(?:layout\s*\([^)]*\)\s*)?(?:(?:lowp|mediump|highp)\s+)?"
+                      r"\w+\s+([^;{]+);")
 
+GL_CLIP_DISTANCE0 = 0x3000
 INSTALL_HINT = ("Luxel needs OpenGL 4.1. Install or update the GPU driver; on a machine without "
                 "a GPU install Mesa (Debian/Ubuntu: apt install libegl1 libgl1-mesa-dri; "
                 "Fedora: dnf install mesa-libEGL mesa-dri-drivers).")
@@ -146,6 +151,62 @@ def load_shader(name):
     return expand(name, frozenset())
 
 
+def declared_uniforms(*sources):
+    """The names of the uniforms that GLSL ``sources`` (#include expanded) declare: the
+    compiler drops those a program does not use, and moderngl then does not list them."""
+    names = set()
+    for source in sources:
+        for declaration in _UNIFORM.findall(_COMMENT.sub(" ", source)):
+            names.update(name.split("[")[0].strip() for name in declaration.split(","))
+    return names
+
+
+class UndeclaredUniformError(LookupError):
+    """A uniform set on a program whose shaders do not declare it (a misspelt or stale
+    name): a bug, never a driver's choice."""
+
+
+def set_uniform(program, name, value):
+    """Set a uniform of a program made by GLObjects.program. A uniform its shaders declare
+    but the compiler removed as unused (drivers differ) is skipped; one they never declare
+    raises UndeclaredUniformError."""
+    uniform = program.get(name, None)
+    if uniform is not None:
+        uniform.value = value
+    elif name not in program.extra["uniforms"]:
+        raise UndeclaredUniformError(
+            f"uniform {name} is not declared in program {program.extra['name']}")
+
+
+@contextmanager
+def render_state(ctx, *, blend=None, framebuffer=None, color_mask=None, clip_distance=False):
+    """Blend and colour-mask state for a block, restored after it, also on an exception.
+    ``blend``: an equation (moderngl.FUNC_ADD, MIN, MAX, FUNC_REVERSE_SUBTRACT) that adds the
+    incoming values to the stored ones with weights one and one; ``color_mask`` the mask of
+    ``framebuffer``'s attachments (moderngl applies it when the framebuffer is bound);
+    ``clip_distance``: gl_ClipDistance[0] clips."""
+    saved_mask = None
+    if clip_distance:
+        ctx.enable_direct(GL_CLIP_DISTANCE0)
+    if color_mask is not None:
+        saved_mask = framebuffer.color_mask
+        framebuffer.color_mask = color_mask
+    if blend is not None:
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_equation = blend
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+    try:
+        yield
+    finally:
+        if blend is not None:
+            ctx.blend_equation = moderngl.FUNC_ADD
+            ctx.disable(moderngl.BLEND)
+        if saved_mask is not None:
+            framebuffer.color_mask = saved_mask
+        if clip_distance:
+            ctx.disable_direct(GL_CLIP_DISTANCE0)
+
+
 class GLObjects:
     """Every GL object the solver creates goes through here and is released in one place,
     in reverse order, also when construction failed halfway."""
@@ -194,11 +255,17 @@ class GLObjects:
         return self.keep(self.ctx.buffer(data, reserve=reserve))
 
     def program(self, vertex, fragment, geometry=None):
-        """A program from shader files."""
-        return self.keep(self.ctx.program(
-            vertex_shader=load_shader(vertex),
-            fragment_shader=load_shader(fragment),
-            geometry_shader=load_shader(geometry) if geometry else None))
+        """A program from shader files; its ``extra`` names them and the uniforms they declare
+        (set_uniform)."""
+        sources = [load_shader(vertex), load_shader(fragment)]
+        if geometry:
+            sources.append(load_shader(geometry))
+        program = self.keep(self.ctx.program(
+            vertex_shader=sources[0], fragment_shader=sources[1],
+            geometry_shader=sources[2] if geometry else None))
+        program.extra = {"name": " + ".join(name for name in (vertex, geometry, fragment) if name),
+                         "uniforms": declared_uniforms(*sources)}
+        return program
 
     def vertex_array(self, program, content):
         return self.keep(self.ctx.vertex_array(program, content))
@@ -215,6 +282,19 @@ class GLObjects:
 
     def __len__(self):
         return len(self._objects)
+
+
+def buffer_content(program, vbo, layout):
+    """Vertex-array content for an interleaved buffer of float attributes ((name, count) in
+    ``layout``), skipping those the program's compiler removed as unused."""
+    formats, names = [], []
+    for name, count in layout:
+        if program.get(name, None) is not None:
+            formats.append(f"{count}f")
+            names.append(name)
+        else:
+            formats.append(f"{4 * count}x")
+    return (vbo, " ".join(formats), *names)
 
 
 QUERY_POOL_SIZE = 512

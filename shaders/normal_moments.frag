@@ -1,7 +1,7 @@
 #version 410
 // Second moments of the shading normals over each texel in the tangent plane of its sample's
 // normal (tangent_of() and the bitangent), weighted by the share of the texel each triangle
-// covers and summed by additive blending (Solver._measure_surface).
+// covers and summed by additive blending (preprocess.measure_surface).
 flat in vec2 g_texel[3];
 flat in vec3 g_normal[3];
 flat in vec3 g_face_normal;

@@ -1,7 +1,7 @@
 #version 410
 // Exact world area of every texel: the clipped area of each triangle in the texel, summed
 // over triangles by additive blending into the alpha channel of the position map. Beside it,
-// for the texels whose surface bends within them (Solver._measure_surface), the sum of the
+// for the texels whose surface bends within them (preprocess.measure_surface), the sum of the
 // shading normals weighted by the share of the texel each triangle covers, and the sum of
 // those shares.
 flat in vec2 g_texel[3];

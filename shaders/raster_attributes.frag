@@ -19,7 +19,7 @@ uniform int u_use_texture;
 
 layout(location = 0) out vec4 out_position;  // xyz, w = texel area (added by the area pass)
 layout(location = 1) out vec4 out_normal;    // octahedral normal (texel_maps.glsl), and the
-                                             // spread of a flat texel (Solver._measure_surface)
+                                             // spread of a flat texel (preprocess.measure_surface)
 layout(location = 2) out vec4 out_material;  // albedo, a = the receiving surface's number
 layout(location = 3) out vec4 out_unshot;    // emitted radiance (the first unshot), a = world
                                              // length of a texel edge

@@ -12,7 +12,7 @@ uniform vec3 u_radiance;       // unshot radiance leaving the front face (shoote
                                // one-sided: a two-sided emitter shoots from a mirrored copy)
 uniform vec4 u_surface_extent; // u min, u max, v min, v max of the shooter's surface along
                                // u_frame's tangent and bitangent, from u_centre
-uniform float u_sandwich_gap;  // a gap under this share of a texel is a sandwich
+uniform float u_thin_gap;      // a gap under this share of a texel is thin
 
 float polygon_form_factor(vec3 p, vec3 n) {
     vec3 poly[5];
@@ -43,16 +43,16 @@ bool in_near_field(vec3 point, float texel_size) {
     return distance(point, u_centre) < reach;
 }
 
-// A receiver facing the shooter across a gap under u_sandwich_gap of its texel, its sample
+// A receiver facing the shooter across a gap under u_thin_gap of its texel, its sample
 // point within a texel of the shooter's surface rectangle (a ceiling 0.1 mm over a lamp's
 // back, or 1 cm over an office lamp at 25 cm texels, and beside it, where the gap's light
 // leaks out). The solver gives it the gap's light in closed form, all its
-// bounces at once (Solver._close_thin_gap): shot by shot, at its sample point alone, a texel
+// bounces at once (thin_gaps.close): shot by shot, at its sample point alone, a texel
 // got all of a shooter over the point and none of one beside it, and the gap's light went
 // back and forth for hundreds of shots.
-bool sandwiched(vec3 from_shooter, float height, vec3 normal, float side) {
+bool across_thin_gap(vec3 from_shooter, float height, vec3 normal, float side) {
     vec2 at = vec2(dot(from_shooter, u_frame[0]), dot(from_shooter, u_frame[1]));
-    return height < u_sandwich_gap * side && dot(normal, u_frame[2]) < -0.99
+    return height < u_thin_gap * side && dot(normal, u_frame[2]) < -0.99
         && all(greaterThanEqual(at, u_surface_extent.xz - side))
         && all(lessThanEqual(at, u_surface_extent.yw + side));
 }
@@ -63,8 +63,8 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     // Only what lies in front. The shooter's own plane gets nothing: Lambert's formula jumps
     // to 1 at a point inside a coplanar polygon, and rounding puts such points on either side.
     if (height <= u_epsilon || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
-    // Across a thin gap the solver gives the light (sandwiched()).
-    if (near_side > 0.0 && sandwiched(from_shooter, height, normal, near_side)) return vec3(0.0);
+    // Across a thin gap the solver gives the light (across_thin_gap()).
+    if (near_side > 0.0 && across_thin_gap(from_shooter, height, normal, near_side)) return vec3(0.0);
     float visible = visible_from_eye(point, normal, receiver_surface);
     if (visible <= 0.0) return vec3(0.0);
     return PI * u_radiance * polygon_form_factor(point, normal) * visible;

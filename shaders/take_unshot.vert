@@ -1,6 +1,6 @@
 #version 410
 // One point per texel a shot changes in place, carrying the value blended into it: what the
-// shot took from its unshot energy, or a thin gap's light (Solver._blend_points).
+// shot took from its unshot energy, or a thin gap's light (state.blend_points).
 in vec2 in_texel;
 in vec4 in_taken;
 uniform vec2 u_atlas_size;

@@ -1,4 +1,4 @@
-// The compact per-texel maps (Solver._allocate_page in native/solver.py): the normal
+// The compact per-texel maps (allocate_page in native/preprocess.py): the normal
 // octahedral in two 16-bit normalized channels, with 0 and +-1 exact so that axis-aligned
 // surfaces keep exact normals; a receiving surface's number and the subdivision level as
 // integers in normalized channels. Stored integers carry +0.25 so that a driver that
@@ -37,11 +37,11 @@ vec3 tangent_of(vec3 n) {
     return normalize(axis - n * dot(axis, n));
 }
 
-// A texel whose surface bends within it (Solver._measure_surface) keeps its sample's normal n
+// A texel whose surface bends within it (preprocess.measure_surface) keeps its sample's normal n
 // in the first two channels, the spread of its normals (the mean normal's length, 1 on a flat
 // texel) in the third, and in the fourth, 8 bits each, the heading of a tangent of n (from
 // tangent_of(n) towards n x tangent_of(n)) and the tilt from n along it to the mean normal
-// (_bent_normal_codes). Gives the mean normal's direction and the axis, at it, along which
+// (preprocess.bent_normal_codes). Gives the mean normal's direction and the axis, at it, along which
 // the normals vary most.
 const float BEND_STEPS = 255.0;
 

@@ -1,7 +1,7 @@
 // What the visibility map keeps per texel, by MIN blending: the exact nearest distance, and
 // that distance rounded down to 10 mantissa bits with a bit set when the triangle faces away
 // from the eye and, in the 12 bits below, the number of its surface (smooth_surfaces in
-// solver.py). Positive floats order as their bits do, so the minimum of the second channel
+// geometry.py). Positive floats order as their bits do, so the minimum of the second channel
 // carries the nearest surface's number; at a tie, a surface facing the eye wins over one
 // facing away (the two faces of a sheet), then the lower number (emitters come first).
 vec2 stored_distance(float distance, float surface, bool faces_away) {

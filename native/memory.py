@@ -1,0 +1,96 @@
+"""The memory budget: how much GPU memory an atlas's maps take, and the refusal, with a
+density that fits, of an atlas over Settings.memory_limit or the largest texture size."""
+import math
+
+import numpy as np
+
+from .atlas import charted_triangles
+from .errors import GPUMemoryError
+
+# Per texel (see preprocess.allocate_page): position + area, irradiance, unshot radiance +
+# texel size (RGBA32F, 16 B each: sums over thousands of shots), albedo + surface number
+# (RGBA16, 8 B: 16-bit fixed point holds 0.99 within 8e-6, where half floats' 0.99023 put
+# 2.4 % more light in a closed room of that albedo), the octahedral normal, its spread and
+# spread axis (RGBA16, 8 B) and the subdivision level (R8, 1 B). The rasterization depth
+# (4 B) lives only until the irradiance is made.
+BYTES_PER_TEXEL = 3 * 16 + 8 + 8 + 1
+# The selection pyramid's first level holds a texel (RGBA32F) per block; the levels above
+# it add a third.
+PYRAMID_TEXEL_BYTES = 16
+# The visibility map as budgeted: its side squared times this.
+VISIBILITY_BYTES_PER_TEXEL = 6 * 4
+# A search for a density that fits steps down by this factor, at most this many times.
+DENSITY_STEP = 0.85
+DENSITY_STEPS = 30
+# A first guess starts from this share of the memory for the surface: charts are padded and
+# packed with gaps.
+SURFACE_SHARE_GUESS = 0.5
+
+
+def memory_needed(atlas, settings, map_size):
+    """Bytes of the maps of ``atlas``'s pages, its selection pyramid and the visibility map."""
+    texels = atlas.width * atlas.height * atlas.page_count
+    block = 1 << settings.shoot_level
+    pyramid = texels / (block * block) * PYRAMID_TEXEL_BYTES * 4 / 3
+    visibility = map_size ** 2 * VISIBILITY_BYTES_PER_TEXEL
+    return int(texels * BYTES_PER_TEXEL + pyramid + visibility)
+
+
+def fits(atlas, settings, map_size, max_texture_size):
+    return (memory_needed(atlas, settings, map_size) <= settings.memory_limit
+            and max(atlas.width, atlas.height) <= max_texture_size)
+
+
+def check_surface_fits(scene, settings, fits_at):
+    """Refuse, before xatlas charts it, a density whose surface alone overflows the memory:
+    at 10^4 texels per metre xatlas takes 100 s on a 4 m room, at 10^6 hours. ``fits_at``
+    tells whether the atlas of a density fits."""
+    density = settings.texel_density
+    if not np.isfinite(density) or density <= 0.0:
+        return  # build_atlas names the bad value
+    charted = charted_triangles(scene)
+    scales = np.asarray(scene.object_texel_scale)[scene.object_index[charted]]
+    surface = float(np.sum(scene.triangle_area[charted] * scales ** 2))  # m^2 at density 1
+    needed = surface * density ** 2 * BYTES_PER_TEXEL
+    limit = int(settings.memory_limit)
+    if needed <= limit:
+        return
+    fits = density_that_fits(
+        math.sqrt(SURFACE_SHARE_GUESS * limit / (surface * BYTES_PER_TEXEL)), fits_at)
+    raise GPUMemoryError(
+        f"the lightmaps need at least {needed / 2**20:,.0f} MiB of GPU memory at "
+        f"{density:.4g} texels per metre but {limit / 2**20:.1f} MiB are allowed: "
+        f"{lower_to(fits)}", int(needed), limit, fits)
+
+
+def check_memory(atlas, settings, needed, fitting, fits_at):
+    """Refuse an atlas that does not fit (``fitting`` False) and needs ``needed`` bytes."""
+    if fitting:
+        return
+    # Texels scale with the square of the density; padding does not, so search down.
+    limit = int(settings.memory_limit)
+    fits = density_that_fits(atlas.density * math.sqrt(limit / needed), fits_at)
+    raise GPUMemoryError(
+        f"the lightmaps need {needed / 2**20:.1f} MiB of GPU memory "
+        f"({atlas.width}x{atlas.height} texels on {atlas.page_count} page(s)) but "
+        f"{limit / 2**20:.1f} MiB are allowed: {lower_to(fits, atlas.density)}",
+        needed, limit, fits)
+
+
+def density_that_fits(density, fits_at):
+    """The first density from ``density`` down in steps of 15 % whose atlas fits, or None
+    when even 1/130 of it does not."""
+    for _ in range(DENSITY_STEPS):
+        if fits_at(density):
+            return density
+        density *= DENSITY_STEP
+    return None
+
+
+def lower_to(density, current=None):
+    """The fix a GPUMemoryError gives: a density checked to fit, or the memory to raise."""
+    if density is None:
+        return ("no texel density fits: raise the memory limit or give fewer objects a "
+                "lightmap")
+    start = "" if current is None else f"from {current:.4g} "
+    return f"lower the texel density {start}to {density:.4g} texels per metre or less"

@@ -1,0 +1,179 @@
+"""Shooter construction: the selected regions' maps read back in one wait for the GPU, and
+from each region (or its finer parts) a shooter: the coplanar texels around the strongest
+with similar unshot radiance, on one side of every occluder crossing the block, in a
+rectangle, and the quad they shoot from."""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .geometry import chart_quad, lightmap_tangent, rectangle_around, region_charts, shooter_quad
+from .state import Region, Shooter, decode_normals
+
+# A shooter takes the texels of its block whose unshot radiance is at least this share of the
+# strongest one's; the rest wait for a later shot. Lumping a bright corner with dim texels
+# would shoot the bright energy from the wrong place (across a shadow boundary, say).
+SIMILAR_RADIANCE = 0.25
+# A shooter's texels face within this cosine of its strongest texel's normal, and lie within
+# this share of the block's side (in the strongest texel's size) of its plane.
+COPLANAR_COSINE = 0.95
+COPLANAR_DEPTH = 0.25
+# A plane crosses a shooting block when texels lie this share of a texel beyond it each way.
+CROSSING_MARGIN = 1e-3
+# What a shooter reads of its block: (attachment of state.Page.blocks, components).
+BLOCK_MAPS = ((0, 4), (1, 2), (2, 4), (3, 4))
+
+
+@dataclass
+class BlockMaps:
+    """A region's maps read back, as float64 rows (row-major within the region)."""
+    position: np.ndarray    # (N, 4): xyz, area
+    normal: np.ndarray      # (N, 3)
+    unshot: np.ndarray      # (N, 4): radiance, texel size
+    surface: np.ndarray     # (N,) surface numbers
+    albedo: np.ndarray      # (N, 3)
+
+    def rows(self, rows):
+        return BlockMaps(*(values[rows] for values in (self.position, self.normal, self.unshot,
+                                                        self.surface, self.albedo)))
+
+
+@dataclass
+class ShooterCaches:
+    """What shooter construction keeps: the read-back buffer, and per region (texels do not
+    move, and blocks are shot many times) the occluders' planes crossing it and its charts."""
+    occluders: object                               # geometry.TrianglePlanes
+    staging: object                                 # buffer: BLOCK_MAPS of a selection
+    crossing_planes: dict = field(default_factory=dict)
+    region_charts: dict = field(default_factory=dict)
+
+
+def staging_bytes(settings, block):
+    """The staging buffer's size: the BLOCK_MAPS of every block of a selection."""
+    return (settings.shooters_per_selection * block * block * 4
+            * sum(components for _, components in BLOCK_MAPS))
+
+
+def read_blocks(state, caches, regions):
+    """Per Region its BlockMaps, queued into one staging buffer and read back once."""
+    offset, views = 0, []
+    for region in regions:
+        page = state.pages[region.page]
+        width, height = region.width_on(state.packed), region.height_on(state.packed)
+        count = width * height
+        for attachment, components in BLOCK_MAPS:
+            page.blocks.read_into(caches.staging, viewport=(region.x0, region.y0, width, height),
+                                  components=components, attachment=attachment, dtype="f4",
+                                  write_offset=offset)
+            views.append((offset // 4, count, components))
+            offset += count * components * 4
+    data = np.frombuffer(caches.staging.read(size=offset), dtype="f4").astype(np.float64)
+    rows = [data[start:start + components * count].reshape(count, components)
+            for start, count, components in views]
+    return [BlockMaps(position, decode_normals(normal), unshot,
+                      np.floor(material[:, 3] * 65535.0 + 0.5), material[:, :3])  # decode_surface()
+            for position, normal, unshot, material in zip(*(rows[i::4] for i in range(4)))]
+
+
+def parts(state, region, maps, finer):
+    """The region, or its sub-blocks ``finer`` levels down, each with its rows of the maps
+    (row-major within the sub-block, as make_shooter reads them) and their indices in the
+    region's."""
+    if finer == 0:
+        yield region, maps, np.arange(len(maps.position))
+        return
+    width, height = region.width_on(state.packed), region.height_on(state.packed)
+    part = region.size >> finer
+    index = np.arange(width * height)
+    column, row = index % width, index // width
+    for y in range(0, height, part):
+        for x in range(0, width, part):
+            rows = index[(column >= x) & (column < x + part) & (row >= y) & (row < y + part)]
+            yield (Region(region.page, region.x0 + x, region.y0 + y, part),
+                   maps.rows(rows), rows)
+
+
+def charts_of(state, caches, region, maps, rows):
+    """For a part of ``region`` (its ``rows`` of the region's maps): the chart label of each
+    of its texels and the charts (geometry.region_charts). Once per region."""
+    charts = caches.region_charts.get(region)
+    if charts is None:
+        charts = caches.region_charts[region] = region_charts(
+            maps.position, maps.unshot[:, 3], region.width_on(state.packed),
+            (region.x0, region.y0))
+    return charts.labels[rows], charts.by_label
+
+
+def make_shooter(state, caches, region, maps, charts):
+    """The shooter of a block from its maps: the coplanar part of the block around its
+    strongest texel with similar unshot radiance (blocks at coarse levels may also hold
+    texels of other charts, which keep their energy). None when it holds no unshot power."""
+    page = state.pages[region.page]
+    width = region.width_on(state.packed)
+    position, normal, unshot, albedo = maps.position, maps.normal, maps.unshot, maps.albedo
+    area, radiance, texel_size = position[:, 3], unshot[:, :3], unshot[:, 3]
+    power = radiance.mean(axis=1) * area
+    strongest = int(np.argmax(power))
+    if power[strongest] <= 0.0:
+        return None
+    n0, p0 = normal[strongest], position[strongest, :3]
+    density = power / np.maximum(area, 1e-30)
+    coplanar = ((power > 0.0) & (normal @ n0 > COPLANAR_COSINE)
+                & (np.abs((position[:, :3] - p0) @ n0)
+                   <= COPLANAR_DEPTH * region.size * texel_size[strongest]))
+    members = np.nonzero(coplanar & (density >= SIMILAR_RADIANCE * density[strongest]))[0]
+    members = _same_side_as(caches, region, strongest, members, position, texel_size[strongest])
+    members = rectangle_around(members, strongest, width, len(area) // width)
+    weights = area[members, None]
+    total_area = float(weights.sum())
+    centre = (position[members, :3] * weights).sum(axis=0) / total_area
+    n = (normal[members] * weights).sum(axis=0)
+    n /= np.linalg.norm(n)
+    texels = np.stack([members % width, members // width], axis=1)
+    t = lightmap_tangent(texels, position[members, :3], n)
+    b = np.cross(n, t)
+    taken = unshot[members].astype(np.float32)
+    taken[:, 3] = 0.0   # the texel size stays
+    labels, by_label = charts
+    chart = by_label.get(int(labels[strongest]))
+    origin = (region.x0, region.y0)
+    if chart is not None:
+        quad = chart_quad(texels + origin, position[members, :3], chart, total_area)
+    else:
+        quad = shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
+                            total_area, centre)
+    return Shooter(
+        page=page, texels=texels + origin,
+        centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
+        radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
+        albedo=(albedo[members] * weights).sum(axis=0) / total_area,
+        surface=int(maps.surface[strongest]))
+
+
+def _same_side_as(caches, region, strongest, members, position, texel_size):
+    """The members on the strongest texel's side of every occluder whose plane runs through
+    the block (a wall standing on the floor, a shelf touching a cabinet): shot from one
+    centre, texels on both sides would light each side from the other. The others stay
+    unshot for a later shot."""
+    if len(members) < 2:
+        return members
+    points = position[:, :3]
+    if region not in caches.crossing_planes:   # blocks are shot many times: once per block
+        caches.crossing_planes[region] = _planes_crossing(
+            caches.occluders, points[position[:, 3] > 0.0], texel_size)
+    normals, offsets = caches.crossing_planes[region]
+    if len(offsets) == 0:
+        return members
+    sides = points[members] @ normals.T - offsets                    # (members, planes)
+    own_side = np.sign(points[strongest] @ normals.T - offsets)
+    return members[(sides * own_side >= -CROSSING_MARGIN * texel_size).all(axis=1)]
+
+
+def _planes_crossing(occluders, points, texel_size):
+    """Planes (normals, offsets) of the occluders near ``points`` that have some of them on
+    each side."""
+    near = occluders.within(points.min(axis=0) - texel_size, points.max(axis=0) + texel_size)
+    normals, offsets = occluders.normals[near], occluders.offsets[near]
+    sides = points @ normals.T - offsets
+    margin = CROSSING_MARGIN * texel_size
+    crossing = (sides.max(axis=0) > margin) & (sides.min(axis=0) < -margin)
+    return normals[crossing], offsets[crossing]

@@ -1,0 +1,94 @@
+"""Visibility: the distance map around a shot's eye (the hemicube's faces, one or two
+stereographic or nonlinear hemispheres, or the sun's orthographic window), into which every
+occluding triangle is drawn with its surface number; the receivers test against it."""
+import moderngl
+import numpy as np
+
+from .geometry import TrianglePlanes
+from .gpu import render_state, set_uniform
+from .state import VisibilityMap
+
+# How many cube faces a view draws (render): the hemicube in front of a shooter, all round a
+# point light, the sun's one orthographic window. Hemisphere projections draw the front
+# hemisphere, or both for ALL_FACES.
+FRONT_FACES = 5
+ALL_FACES = 6
+SUN_FACES = 1
+# The map starts at this distance everywhere (nothing drawn), and a texel under
+# DRAWN_DISTANCE holds something.
+CLEAR_DISTANCE = 3.0e38
+DRAWN_DISTANCE = 1e38
+# A scene without occluders draws one triangle out here, which keeps the buffers valid.
+FAR_AWAY = 1e30
+
+
+def create(state):
+    """The visibility map and the vertex arrays that draw the occluders into it."""
+    gl, scene, settings, programs = state.gl, state.scene, state.settings, state.programs
+    layers = 6 if settings.projection == "HEMICUBE" else 2
+    texture = gl.texture_array((state.map_size, state.map_size, layers), 2)
+    framebuffer = gl.framebuffer([texture])
+    # Only occluders go into the visibility buffer; at least one triangle keeps it valid.
+    occluders = scene.triangles[scene.occlude] if scene.occlude.any() else scene.triangles[:0]
+    positions = scene.vertices[occluders].astype("f4")
+    surfaces = state.surfaces[scene.occlude]
+    if not len(positions):
+        positions = np.full((1, 3, 3), FAR_AWAY, dtype="f4")
+        surfaces = np.zeros(1)
+    scene_vbo = gl.buffer(positions.tobytes())
+    surface_vbo = gl.buffer(np.repeat(surfaces, 3).astype("f4").tobytes())
+    scene_content = [(scene_vbo, "3f", "in_position"), (surface_vbo, "1f", "in_surface")]
+    vaos = {name: gl.vertex_array(programs[name], scene_content)
+            for name in ("visibility", "hemisphere", "nonlinear")}
+    initial = settings.subdivision_level if settings.subdivision == "REGULAR" else 0
+    caster_levels = np.full(len(positions), initial, dtype=np.int32)
+    caster_vbo = gl.buffer(np.repeat(caster_levels, 3).astype("f4").tobytes())
+    vaos["hemisphere_tessellated"] = gl.vertex_array(
+        programs["hemisphere_tessellated"],
+        scene_content + [(caster_vbo, "1f", "in_caster_level")])
+    # The occluders' planes keep a shooter on one side of what crosses it (shooters).
+    return VisibilityMap(texture=texture, framebuffer=framebuffer, vaos=vaos,
+                         triangle_vertices=positions.shape[0] * 3,
+                         occluders=TrianglePlanes(positions.astype(np.float64)),
+                         caster_levels=caster_levels, caster_vbo=caster_vbo)
+
+
+def program_for(settings, orthographic):
+    """The name of the program that draws a view."""
+    hemisphere = settings.projection != "HEMICUBE" and not orthographic
+    if hemisphere and settings.projection == "NONLINEAR":
+        return "nonlinear"
+    if hemisphere:
+        # Subdivision also tessellates casters: the per-vertex projection draws their
+        # edges straight, misplacing shadow boundaries (the paper's Figure 5).
+        return "hemisphere_tessellated" if settings.subdivision != "NONE" else "hemisphere"
+    return "visibility"
+
+
+def render(state, visibility, view, *, faces, clip_below):
+    """Distance map around the view's eye: ``faces`` cube faces (ALL_FACES all round,
+    FRONT_FACES the hemicube in front, SUN_FACES the sun's orthographic view) or, with a
+    hemisphere projection, the front hemisphere alone or both; ``clip_below`` clips what lies
+    behind the eye's plane (a one-sided shooter)."""
+    settings = state.settings
+    hemisphere = settings.projection != "HEMICUBE" and not view.orthographic
+    name = program_for(settings, view.orthographic)
+    program = state.programs[name]
+    view.set_uniforms(program, state)
+    set_uniform(program, "u_face_count", (2 if faces == ALL_FACES else 1) if hemisphere
+                else faces)
+    if name == "visibility":   # the hemisphere programs draw the hemispheres u_face_count asks
+        set_uniform(program, "u_clip_below", int(clip_below))
+    visibility.framebuffer.use()
+    visibility.framebuffer.clear(CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE)
+    clip = clip_below or name.startswith("hemisphere")
+    with render_state(state.ctx, blend=moderngl.MIN, clip_distance=clip):
+        visibility.vaos[name].render(moderngl.TRIANGLES, vertices=visibility.triangle_vertices)
+
+
+def covered_share(state, visibility):
+    """The share of the first visibility map's texels that something was drawn into (the
+    sun's window the scene covers)."""
+    texels = state.map_size ** 2
+    distances = np.frombuffer(visibility.texture.read(), dtype="f4")[:2 * texels:2]
+    return float(np.count_nonzero(distances < DRAWN_DISTANCE)) / texels
