@@ -274,7 +274,9 @@ def measure_surface(state, vaos, run_pages, starts, ends):
                    color_mask=[(False, False, False, True), (True,) * 4]) as sums:
             sums.clear(0.0, 0.0, 0.0, 0.0)   # the mask keeps the position's xyz
             _add_up(state.ctx, vaos["area"], runs)
-        normal_sum = read_map(irradiance).astype(np.float64)
+        # float32 for the whole page (a 4096 x 4096 page's sums are 268 MB as read), double
+        # precision only for the bent texels' codes.
+        normal_sum = read_map(irradiance)
         covered = normal_sum[..., 3]
         mean_length = np.linalg.norm(normal_sum[..., :3], axis=-1)
         spread = np.divide(mean_length, covered, out=np.ones_like(covered),
@@ -290,7 +292,7 @@ def measure_surface(state, vaos, run_pages, starts, ends):
         stored = np.frombuffer(normal.read(), dtype=np.uint16).reshape(
             normal.height, normal.width, 4).copy()
         stored[bent, 2:] = bent_normal_codes(
-            normal_sum[bent], read_map(irradiance)[bent].astype(np.float64),
+            normal_sum[bent].astype(np.float64), read_map(irradiance)[bent].astype(np.float64),
             decode_normals(stored[bent] / 65535.0))
         normal.write(stored.tobytes())
 
