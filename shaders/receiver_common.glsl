@@ -44,9 +44,12 @@ void main() {
     // texel gathers at its normal.
     float spread = stored_normal.z;
     int normals = spread < 1.0 && near_side == 0.0 ? 2 : 1;
-    vec3 mean_normal, bend_axis;
-    decode_bend(normal, stored_normal.w, mean_normal, bend_axis);
-    vec3 turn = sqrt(max(1.0 - spread * spread, 0.0)) * bend_axis;
+    vec3 mean_normal = normal, turn = vec3(0.0);
+    if (normals == 2) {   // decoded only where used: every texel runs this every shot
+        vec3 bend_axis;
+        decode_bend(normal, stored_normal.w, mean_normal, bend_axis);
+        turn = sqrt(max(1.0 - spread * spread, 0.0)) * bend_axis;
+    }
     vec3 tangent = tangent_of(normal);
     vec3 bitangent = cross(normal, tangent);
     vec3 irradiance = vec3(0.0);
