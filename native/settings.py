@@ -10,6 +10,8 @@ import argparse
 from dataclasses import dataclass, make_dataclass
 import math
 
+import numpy as np
+
 from .errors import SettingsError
 
 
@@ -67,9 +69,14 @@ class Setting:
         """What is wrong with ``value`` for this setting, or None."""
         if self.kind is float and not math.isfinite(value):
             return f"must be a finite number, got {_shown(value)}"
+        low, high, given = self.minimum, self.maximum, value
+        if self.kind is float:
+            # Blender keeps a FloatProperty in single precision: a slider at 0.01 hands over
+            # 0.0099999998. Bounds and value compare as Blender holds them.
+            low, high, given = (None if x is None else float(np.float32(x))
+                                for x in (low, high, given))
         fits = (value in self.identifiers if self.choices else
-                (self.minimum is None or value >= self.minimum)
-                and (self.maximum is None or value <= self.maximum))
+                (low is None or given >= low) and (high is None or given <= high))
         return None if fits else f"must be {self.allowed}, got {_shown(value)}"
 
 

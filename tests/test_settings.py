@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import math
 
+import numpy as np
 import pytest
 
 from native import Settings, SettingsError
@@ -23,19 +24,25 @@ def ids(settings):
 
 
 def beside(setting, bound, direction):
-    """The next value of the setting's kind past ``bound`` in ``direction`` (+1 or -1)."""
+    """The next value of the setting's kind past ``bound`` in ``direction`` (+1 or -1): for a
+    float, in the single precision Blender keeps its properties in."""
     if setting.kind is int:
         return bound + direction
-    return math.nextafter(bound, direction * math.inf)
+    return float(np.nextafter(np.float32(bound), np.float32(direction * math.inf)))
+
+
+def as_blender_holds(setting, bound):
+    """A bound as a Blender property at that end hands it over (0.01 -> 0.0099999998)."""
+    return float(np.float32(bound)) if setting.kind is float else bound
 
 
 def probes(setting):
     """(value, whether validate() takes it): each bound, and the next value beyond it."""
     found = []
-    if setting.minimum is not None:
-        found += [(setting.minimum, True), (beside(setting, setting.minimum, -1), False)]
-    if setting.maximum is not None:
-        found += [(setting.maximum, True), (beside(setting, setting.maximum, +1), False)]
+    for bound, direction in ((setting.minimum, -1), (setting.maximum, +1)):
+        if bound is not None:
+            found += [(bound, True), (as_blender_holds(setting, bound), True),
+                      (beside(setting, bound, direction), False)]
     if setting.choices:
         found += [(choice.identifier, True) for choice in setting.choices]
         found += [(setting.choices[0].identifier.lower(), False), ("NO_SUCH_CHOICE", False)]
@@ -65,6 +72,29 @@ def refusal(settings):
     except SettingsError as error:
         return str(error)
     return None
+
+
+# What the settings are meant to be, written out by hand (the defaults as Settings had them
+# before the one declaration; the ranges as chosen for it, README): the declaration is held
+# against this, so that a slip in it shows.
+INTENDED = {   # name: (default, minimum, maximum)
+    "texel_density": (20.0, 0.01, None), "max_atlas_size": (4096, 16, None),
+    "padding": (2, 1, None), "hemicube_resolution": (128, 8, 4096), "shoot_level": (2, 0, 6),
+    "threshold": (0.01, 0.0, 0.99), "max_shots": (10000, 0, None),
+    "memory_limit": (4 << 30, 1, None), "sky_directions": (256, 1, 65536),
+    "projection": ("HEMICUBE", None, None), "neighbour_visibility": (True, None, None),
+    "subdivision": ("NONE", None, None), "subdivision_level": (2, 0, 3),
+    "subdivision_shadow_min": (0.02, 0.0, 1.0), "subdivision_shadow_max": (0.98, 0.0, 1.0),
+    "adaptive_shoot_level": (False, None, None), "shooters_per_selection": (8, 1, 64),
+    "ambient": (True, None, None), "profile": (False, None, None),
+}
+
+
+def test_the_declaration_holds_the_intended_defaults_and_ranges():
+    declared = {setting.name: (setting.default, setting.minimum, setting.maximum)
+                for setting in SETTINGS}
+    assert declared == INTENDED
+    assert Settings().threshold == 0.01 and Settings().texel_density == 20.0
 
 
 def test_settings_has_a_field_of_the_declared_type_and_default_per_setting():
