@@ -179,15 +179,20 @@ def set_uniform(program, name, value):
 
 
 @contextmanager
-def render_state(ctx, *, blend=None, framebuffer=None, color_mask=None, clip_distance=False):
-    """Blend and colour-mask state for a block, restored after it, also on an exception.
+def render_state(ctx, *, blend=None, framebuffer=None, color_mask=None, clip_distance=False,
+                 depth_test=False):
+    """Blend, colour-mask, clip and depth state for a block, restored after it, also on an
+    exception.
     ``blend``: an equation (moderngl.FUNC_ADD, MIN, MAX, FUNC_REVERSE_SUBTRACT) that adds the
     incoming values to the stored ones with weights one and one; ``color_mask`` the mask of
     ``framebuffer``'s attachments (moderngl applies it when the framebuffer is bound);
-    ``clip_distance``: gl_ClipDistance[0] clips."""
+    ``clip_distance``: gl_ClipDistance[0] clips; ``depth_test``: the nearer fragment wins."""
     saved_mask = None
     if clip_distance:
         ctx.enable_direct(GL_CLIP_DISTANCE0)
+    if depth_test:
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
     if color_mask is not None:
         saved_mask = framebuffer.color_mask
         framebuffer.color_mask = color_mask
@@ -205,6 +210,8 @@ def render_state(ctx, *, blend=None, framebuffer=None, color_mask=None, clip_dis
             framebuffer.color_mask = saved_mask
         if clip_distance:
             ctx.disable_direct(GL_CLIP_DISTANCE0)
+        if depth_test:
+            ctx.disable(moderngl.DEPTH_TEST)
 
 
 class GLObjects:

@@ -9,7 +9,7 @@ import numpy as np
 
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
-from .state import Bounds, Energy, Page, decode_normals, read_map
+from .state import MAP_UNITS, Bounds, Energy, Page, decode_normals, read_map
 
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
                  ("in_albedo", 3), ("in_emission", 3), ("in_receive", 1))
@@ -121,8 +121,7 @@ def set_constant_uniforms(state):
                  "u_epsilon": bounds.epsilon, "u_ortho_half": bounds.radius,
                  "u_neighbour_visibility": int(settings.neighbour_visibility),
                  "u_emitting_surfaces": state.emitting_surfaces,
-                 "u_visibility": 0, "u_position": 1, "u_normal": 2, "u_material": 3,
-                 "u_level": 4}
+                 "u_visibility": 0, **{f"u_{name}": unit for name, unit in MAP_UNITS.items()}}
     constants = {
         "attributes": {"u_atlas_size": size, "u_albedo_texture": 0},
         "area": {"u_atlas_size": size},
@@ -232,21 +231,19 @@ def rasterize(state):
                for page in pages]
     for page in pages:
         page.level_only.clear(0.0, 0.0, 0.0, 0.0)
-    ctx.enable(moderngl.DEPTH_TEST)
-    ctx.depth_func = "<"
-    program = programs["attributes"]
-    rasters[0].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-    for start, end in zip(starts, ends):   # runs are sorted by page
-        page_index, texture = keys[start]
-        if start and keys[start - 1][0] != page_index:   # the next page: the depth anew
-            rasters[page_index].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        rasters[page_index].use()
-        set_uniform(program, "u_use_texture", int(texture >= 0))
-        if texture >= 0:
-            state.albedo_textures[texture].use(location=0)
-        vaos["attributes"].render(moderngl.TRIANGLES, vertices=3 * (end - start),
-                                  first=3 * start)
-    ctx.disable(moderngl.DEPTH_TEST)
+    with render_state(ctx, depth_test=True):
+        program = programs["attributes"]
+        rasters[0].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        for start, end in zip(starts, ends):   # runs are sorted by page
+            page_index, texture = keys[start]
+            if start and keys[start - 1][0] != page_index:   # the next page: the depth anew
+                rasters[page_index].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            rasters[page_index].use()
+            set_uniform(program, "u_use_texture", int(texture >= 0))
+            if texture >= 0:
+                state.albedo_textures[texture].use(location=0)
+            vaos["attributes"].render(moderngl.TRIANGLES, vertices=3 * (end - start),
+                                      first=3 * start)
     # moderngl binds the last used framebuffer again after making one: not a released one.
     pages[0].area_only.use()
     gl.release_now(*rasters, depth)

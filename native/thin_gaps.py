@@ -11,7 +11,7 @@ import math
 import moderngl
 import numpy as np
 
-from .geometry import TrianglePlanes, texels_to_world
+from .geometry import TrianglePlanes, tangents_of, texels_to_world
 from .gpu import render_state, set_uniform
 from .state import NO_SURFACE, blend_points, decode_normals, read_map
 
@@ -52,9 +52,7 @@ def square(centre, half_t, half_b):
 def square_halves(normal, side, t, b):
     """Half of each texel's square edges (N,) x 2, along the shaders' tangent_of() of its
     ``normal`` and the bitangent, as complex coordinates along t and b."""
-    axis = np.eye(3)[np.argmin(np.abs(normal), axis=1)]
-    tangent = axis - normal * (axis * normal).sum(axis=1, keepdims=True)
-    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    tangent = tangents_of(normal)
     bitangent = np.cross(normal, tangent)
     return tuple(0.5 * side * (edge @ t + 1j * (edge @ b)) for edge in (tangent, bitangent))
 

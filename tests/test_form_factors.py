@@ -325,7 +325,7 @@ def test_curved_surface_first_bounce_matches_lambert_on_every_facet(ctx, gl_clea
     finally:
         solver.release()
     assert progress.converged
-    lattice = texel_lattice(scene, solver.atlas, grid=4)
+    lattice = texel_lattice(solver.scene, solver.atlas, grid=4)
     at_points = sum(analytic.polygon_form_factors(lattice.points, lattice.normals,
                                                   scene.vertices[triangle])
                     for triangle in scene.triangles[scene.emission[:, 0] > 0])

@@ -27,7 +27,8 @@ class TexelLattice:
 
 def texel_lattice(scene, atlas, page=0, grid=4):
     """The points of a grid x grid lattice over every texel square of ``page`` that fall on a
-    charted triangle, with the shading normal there (the corners' normals interpolated, or
+    charted triangle of ``scene`` (the solver's, Solver.scene: with its back-face copies, which
+    the atlas indexes), with the shading normal there (the corners' normals interpolated, or
     the face's)."""
     lattice = (np.arange(grid) + 0.5) / grid
     found = []
