@@ -90,5 +90,7 @@ def covered_share(state, visibility):
     """The share of the first visibility map's texels that something was drawn into (the
     sun's window the scene covers)."""
     texels = state.map_size ** 2
-    distances = np.frombuffer(visibility.texture.read(), dtype="f4")[:2 * texels:2]
+    # Reading the layered framebuffer reads its first layer only: a sixth of the texture.
+    distances = np.frombuffer(visibility.framebuffer.read(components=2, dtype="f4"),
+                              dtype="f4")[::2]
     return float(np.count_nonzero(distances < DRAWN_DISTANCE)) / texels
