@@ -76,3 +76,20 @@ def inward_sphere(rings=16, segments=32, albedo=0.5, radiance=4.0, cap_rings=3):
                  albedo=np.full((count, 3), albedo),
                  emission=np.where(emitting[:, None], radiance, 0.0) * np.ones((count, 3)),
                  emission_two_sided=np.zeros(count, dtype=bool))
+
+
+def smooth_tube(radius, length, sides, rings):
+    """An open tube along x with outward corner normals (shaded smooth), as Blender makes a
+    curve's bevel: vertices, triangles, normals."""
+    angles = 2 * np.pi * np.arange(sides) / sides
+    rim = np.stack([np.zeros(sides), np.cos(angles), np.sin(angles)], axis=1)
+    xs = np.linspace(0.0, length, rings + 1)
+    vertices = (radius * rim[None] + xs[:, None, None] * np.array([1.0, 0.0, 0.0])).reshape(-1, 3)
+    normals = np.tile(rim, (rings + 1, 1))
+    triangles = []
+    for i in range(rings):
+        for j in range(sides):
+            a, b = i * sides + j, i * sides + (j + 1) % sides
+            c, d = b + sides, a + sides
+            triangles += [[a, b, c], [a, c, d]]
+    return vertices, np.array(triangles), normals

@@ -217,23 +217,6 @@ def test_tiny_huge_and_sliver_triangles_with_t_junctions_follow_cos_over_r_squar
     assert ledger.imbalance() < 1e-4
 
 
-def smooth_tube(radius, length, sides, rings):
-    """An open tube along x with outward corner normals (shaded smooth), as Blender makes a
-    curve's bevel: vertices, triangles, normals."""
-    angles = 2 * np.pi * np.arange(sides) / sides
-    rim = np.stack([np.zeros(sides), np.cos(angles), np.sin(angles)], axis=1)
-    xs = np.linspace(0.0, length, rings + 1)
-    vertices = (radius * rim[None] + xs[:, None, None] * np.array([1.0, 0.0, 0.0])).reshape(-1, 3)
-    normals = np.tile(rim, (rings + 1, 1))
-    triangles = []
-    for i in range(rings):
-        for j in range(sides):
-            a, b = i * sides + j, i * sides + (j + 1) % sides
-            c, d = b + sides, a + sides
-            triangles += [[a, b, c], [a, c, d]]
-    return vertices, np.array(triangles), normals
-
-
 @pytest.mark.parametrize("sun_degrees", [0, 30, 60, 90, 135, 180])
 def test_a_tube_thinner_than_a_texel_shows_the_mean_light_around_it(ctx, gl_clean,
                                                                    sun_degrees):
@@ -244,7 +227,7 @@ def test_a_tube_thinner_than_a_texel_shows_the_mean_light_around_it(ctx, gl_clea
     the solver). At one sample's normal per texel the cable came out 0.911-1.057 of that,
     depending on the sun's direction."""
     sides, albedo, strength = 16, 0.5, 3.0
-    vertices, triangles, normals = smooth_tube(0.005, 1.0, sides, rings=8)
+    vertices, triangles, normals = scenes.smooth_tube(0.005, 1.0, sides, rings=8)
     toward_sun = np.array([0.0, -math.sin(math.radians(sun_degrees)),
                            math.cos(math.radians(sun_degrees))])
     scene = Scene(vertices=vertices, triangles=triangles, normals=normals,

@@ -8,6 +8,8 @@ import math
 import numpy as np
 import pytest
 
+import scenes
+
 from native import PROJECTIONS, PointLight, Scene, Settings, Solver, SpotLight, SunLight
 from native import gpu
 from native.samples import SceneBuilder
@@ -59,18 +61,8 @@ def lit_room():
 
 def thin_cable():
     """A smooth 1 cm tube at 10 texels per metre: its texels bend within them."""
-    sides, rings = 16, 4
-    angles = 2 * np.pi * np.arange(sides) / sides
-    rim = np.stack([np.zeros(sides), np.cos(angles), np.sin(angles)], axis=1)
-    xs = np.linspace(0.0, 1.0, rings + 1)
-    vertices = (0.005 * rim[None] + xs[:, None, None] * np.array([1.0, 0.0, 0.0])).reshape(-1, 3)
-    triangles = []
-    for i in range(rings):
-        for j in range(sides):
-            a, b = i * sides + j, i * sides + (j + 1) % sides
-            triangles += [[a, b, b + sides], [a, b + sides, a + sides]]
-    return Scene(vertices=vertices, triangles=np.array(triangles),
-                 normals=np.tile(rim, (rings + 1, 1)),
+    vertices, triangles, normals = scenes.smooth_tube(0.005, 1.0, sides=16, rings=4)
+    return Scene(vertices=vertices, triangles=triangles, normals=normals,
                  albedo=np.full((len(triangles), 3), 0.5),
                  lights=[SunLight(direction=(0.0, -math.sqrt(0.5), -math.sqrt(0.5)),
                                   strength=3.0)])
