@@ -103,7 +103,7 @@ class BakeJob:
         settings = self.solver.settings
         if progress.finished:
             return 1.0
-        by_shots = progress.shots / max(settings.max_shots, 1)
+        by_shots = progress.shots / max(progress.shot_limit, 1)
         by_energy = 0.0
         if progress.unshot_fraction < 1.0 and settings.threshold > 0.0:
             by_energy = math.log(max(progress.unshot_fraction, 1e-12)) / math.log(
@@ -118,8 +118,9 @@ class BakeJob:
             return (f"Luxel: {stage}{note}, set-up "
                     f"{100.0 * self.set_up_progress.fraction:.0f} % done")
         progress = self.solver.progress
-        return (f"Luxel: {progress.shots} shots, {100.0 * progress.unshot_fraction:.2f} % "
-                f"unshot, {self.solver.texel_count:,} texels")
+        return (f"Luxel: {progress.shots:,} of {progress.shot_limit:,} shots, "
+                f"{100.0 * progress.unshot_fraction:.2f} % unshot, "
+                f"{self.solver.texel_count:,} texels")
 
     def finish(self):
         """Write the lightmaps, UV maps and stats into the .blend and free the GPU."""

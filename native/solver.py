@@ -31,7 +31,7 @@ from .gpu import GLObjects, create_context, using
 from .memory import BYTES_PER_TEXEL  # noqa: F401  (the add-on's tests read it here)
 from .postprocess import Ledger  # noqa: F401  (native's API)
 from .selection import MAX_COARSER_LEVELS, ShotQueue
-from .settings import Settings
+from .settings import Settings, shot_limit
 from .state import BakeState, Shooter, View, read_map
 
 PHASES = ("preprocess", "selection", "visibility", "subdivision", "receivers", "postprocess")
@@ -50,12 +50,13 @@ class Progress:
     unshot_fraction: float   # measured before the latest shot
     seconds: float
     converged: bool          # the unshot fraction reached the threshold (or nothing is left)
-    finished: bool           # converged, or stopped at max_shots
+    finished: bool           # converged, or stopped at the shot limit
     texels: int
+    shot_limit: int          # Settings.max_shots, or the automatic limit where it is 0
 
     @property
     def stopped_at_shot_limit(self):
-        """Finished at max_shots with more than the threshold still unshot."""
+        """Finished at the shot limit with more than the threshold still unshot."""
         return self.finished and not self.converged
 
 
@@ -125,7 +126,7 @@ class Solver:
             return False
         while self.set_up_step():
             pass
-        if self.shots >= self.settings.max_shots:
+        if self.shots >= self.shot_limit:
             with using(self.ctx):   # the unshot fraction the bake stops at, measured
                 self._measure_unshot()
             self.finished = True
@@ -152,7 +153,7 @@ class Solver:
     @property
     def progress(self):
         return Progress(self.shots, self._unshot_fraction, time.perf_counter() - self._started,
-                        self.converged, self.finished, self.texel_count)
+                        self.converged, self.finished, self.texel_count, self.shot_limit)
 
     def result(self):
         """Current lightmaps, one float32 (height, width, 4) array per atlas page, row 0 at
@@ -212,6 +213,12 @@ class Solver:
     @property
     def gl_object_count(self):
         return 0 if self._gl is None else len(self._gl)
+
+    @property
+    def shot_limit(self):
+        """Where step() stops above the threshold: Settings.max_shots, or where it is 0 a
+        limit that grows with the scene's texels (settings.shot_limit)."""
+        return shot_limit(self.settings, self.texel_count)
 
     @property
     def texel_count(self):
@@ -321,7 +328,7 @@ class Solver:
         candidates = self._measure_unshot()
         if self.converged:
             return False
-        count = min(self.settings.shooters_per_selection, self.settings.max_shots - self.shots)
+        count = min(self.settings.shooters_per_selection, self.shot_limit - self.shots)
         if queue.pending:
             queue.shots, queue.pending = queue.pending[:count], queue.pending[count:]
             return True

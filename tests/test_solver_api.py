@@ -231,6 +231,21 @@ def test_a_bake_stopped_by_max_shots_says_so_with_the_unshot_fraction_it_reached
         assert progress.converged and not progress.stopped_at_shot_limit
 
 
+def test_max_shots_0_stops_at_a_limit_that_grows_with_the_texels(ctx, gl_clean):
+    """A furnace cube at d texels per metre has 6 d^2 texels, in blocks of 4^shoot_level:
+    the automatic limit is AUTOMATIC_SHOTS_PER_BLOCK of them a block, at least
+    AUTOMATIC_MIN_SHOTS; a max_shots given is the limit."""
+    from native.settings import AUTOMATIC_MIN_SHOTS, AUTOMATIC_SHOTS_PER_BLOCK
+    for density, max_shots in ((4, 0), (48, 0), (48, 77)):
+        with Solver(scenes.furnace_cube(0.5), Settings(texel_density=density, shoot_level=2,
+                                                       max_shots=max_shots), ctx=ctx) as solver:
+            assert solver.texel_count == 6 * density ** 2
+            automatic = max(AUTOMATIC_MIN_SHOTS,
+                            AUTOMATIC_SHOTS_PER_BLOCK * 6 * density ** 2 // 16)
+            assert solver.shot_limit == solver.progress.shot_limit == (max_shots or automatic)
+    assert AUTOMATIC_SHOTS_PER_BLOCK * 6 * 48 ** 2 // 16 > AUTOMATIC_MIN_SHOTS
+
+
 def test_own_context_is_created_and_released():
     solver = Solver(scenes.furnace_cube(0.5), Settings(texel_density=4, max_shots=3))
     ctx = solver.ctx
