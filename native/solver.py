@@ -47,7 +47,8 @@ POINT_BYTES = (2 + 4) * 4
 @dataclass
 class Progress:
     shots: int
-    unshot_fraction: float   # measured before the latest shot
+    # Measured at the latest selection of shooters; once finished, after the last shot.
+    unshot_fraction: float
     seconds: float
     converged: bool          # the unshot fraction reached the threshold (or nothing is left)
     finished: bool           # converged, or stopped at the shot limit
