@@ -1,76 +1,126 @@
-"""One bake, as the operator and the command line run it: export, solve step by step, write
-back. The .blend changes only in finish(); cancel() and failures leave it untouched. Whatever
+"""One bake, as the operator and the command line run it: a set-up in stages (export, then the
+solver's charting and preprocessing), the shots, then write-back. step() does a little of it
+at a time, so that the modal operator shows each stage and takes Esc between the pieces. The
+.blend changes only in finish(); release() (Esc) and failures leave it untouched. Whatever
 fails is raised as a LuxelError naming what failed, so callers catch that alone."""
 from contextlib import contextmanager
+from dataclasses import dataclass
+import inspect
 import math
 import time
+from typing import Callable
 
-from ..native import LuxelError, SceneError, Solver
+from ..native import LuxelError, SceneError, SetUpProgress, Solver
 from . import display
-from .export import export_scene
+from .export import EXPORT_STAGE, export_steps
 from .writeback import lightmap_directory, write_back
 
 GPU_FIX = "update the GPU driver or lower the texel density (Render properties > Luxel Lightmaps)"
 BUG_FIX = "report it as a bug"
+# The progress bar's share for the set-up, the shots fill the rest: which of the two takes
+# longer differs from scene to scene, and the bar only has to move forward.
+SET_UP_SHARE = 0.2
+# What the status bar adds to a stage that Esc cannot cut short.
+UNINTERRUPTIBLE = {"charting": "xatlas cannot be interrupted: Esc is taken once it is done"}
 
 
 class BakeError(LuxelError):
     """A failure that is not the input's: a GL error from moderngl, a bug."""
 
 
+@dataclass(frozen=True)
+class Stage:
+    """One stage of a bake's set-up. ``run`` does it in one call, or is a generator function
+    that does it in pieces and yields a SetUpProgress (what comes next, the share of the
+    stage done) after each piece but the last."""
+    name: str           # what it does, in the status bar and in a failure's message
+    fix: str            # the fix a failure names where the input is not to blame
+    run: Callable
+
+
 class BakeJob:
     def __init__(self, context):
+        """A bake of the context's scene, its set-up not begun: step() does it. Only the scene,
+        its settings and the evaluated depsgraph are taken from ``context``, now."""
         self.scene = context.scene
         self.started = time.perf_counter()
-        with _failures_named("exporting the scene", BUG_FIX):
-            self.export = export_scene(context)
-        if not self.export.receivers:
-            raise SceneError("no object gets a lightmap: enable 'Receive Lightmap' on a "
-                             "visible mesh (Object properties > Luxel)")
-        if self.scene.luxel.output == 'FILES':
-            lightmap_directory(self.scene)      # refused now rather than after the bake
-        with _failures_named("starting the GPU solver", GPU_FIX):
-            self.solver = Solver(self.export.scene, self.scene.luxel.solver_settings())
-        for name in sorted({self.export.scene.object_name(triangle)
-                            for triangle in self.solver.atlas.unpacked}):
-            self.export.warnings.append(f"'{name}': some triangles are too small to chart at "
-                                        "this texel density: they cast shadows but get no "
-                                        "lightmap; scale them up or raise the density")
-        for index in self.solver.atlas.shrunk:
-            self.export.warnings.append(
-                f"'{self.export.scene.object_names[index]}' is too large for one lightmap "
-                "image at this texel density and was baked coarser: raise Max Image Size "
-                "or lower its Resolution Scale (Object properties > Luxel)")
+        self.settings = self.scene.luxel.solver_settings()
+        self.warnings = []
+        self.export = None
+        self.solver = None
+        self._warned = 0
+        self._exporting = export_steps(context)
+        # The set-up, in order: a stage more is a line more.
+        self.stages = (
+            Stage(EXPORT_STAGE, BUG_FIX, self._export),
+            Stage("starting the GPU solver", GPU_FIX, self._start_solver),
+        )
+        self.set_up_progress = SetUpProgress(stage=self.stages[0].name, fraction=0.0)
+        self._set_up_pieces = self._set_up()
 
     @property
-    def warnings(self):
-        return self.export.warnings
+    def is_set_up(self):
+        return self._set_up_pieces is None
+
+    @property
+    def reading_the_scene(self):
+        """Whether the export still reads the scene (an edit now would change it midway)."""
+        return self.export is None and not self.is_set_up
 
     def step(self, seconds=0.1):
-        """Shoot for about ``seconds``; True when the bake has converged or hit max shots."""
+        """Work for about ``seconds``, a piece or a shot at least: the set-up's next pieces,
+        then shots. True when the bake has converged or hit max shots. A piece cannot be cut
+        short (the charting is one call to xatlas), and a step ends where a stage ends, so
+        that the status names each stage before it runs."""
         deadline = time.perf_counter() + seconds
+        stage = self.set_up_progress.stage
+        while not self.is_set_up:
+            self._set_up_step()
+            if self.set_up_progress.stage != stage or time.perf_counter() >= deadline:
+                return False
         with _failures_named("the GPU solver", GPU_FIX):
-            while not self.solver.progress.finished and time.perf_counter() < deadline:
-                self.solver.step()
+            while self.solver.step() and time.perf_counter() < deadline:
+                pass
         return self.solver.progress.finished
 
+    def set_up(self):
+        """The whole set-up in one call (scripts, and what runs the shots itself)."""
+        while not self.is_set_up:
+            self._set_up_step()
+
+    def new_warnings(self):
+        """The warnings found since the last call, to report as they come."""
+        fresh = self.warnings[self._warned:]
+        self._warned = len(self.warnings)
+        return fresh
+
     def fraction(self):
-        """0..1 for a progress bar: unshot energy falls geometrically, so on a log scale."""
+        """0..1 for a progress bar: the set-up, then the shots. Unshot energy falls
+        geometrically, so the shots' part is on a log scale."""
+        if not self.is_set_up:
+            return SET_UP_SHARE * self.set_up_progress.fraction
         progress = self.solver.progress
         settings = self.solver.settings
         if progress.finished:
             return 1.0
-        by_shots = progress.shots / max(settings.max_shots, 1)
+        by_shots = progress.shots / max(progress.shot_limit, 1)
         by_energy = 0.0
         if progress.unshot_fraction < 1.0 and settings.threshold > 0.0:
             by_energy = math.log(max(progress.unshot_fraction, 1e-12)) / math.log(
                 settings.threshold)
-        return min(max(by_shots, by_energy, 0.0), 0.999)
+        shots = min(max(by_shots, by_energy, 0.0), 0.999)
+        return SET_UP_SHARE + (1.0 - SET_UP_SHARE) * shots
 
     def status(self):
+        if not self.is_set_up:
+            stage = self.set_up_progress.stage
+            note = f" ({UNINTERRUPTIBLE[stage]})" if stage in UNINTERRUPTIBLE else ""
+            return (f"Luxel: {stage}{note}, set-up "
+                    f"{100.0 * self.set_up_progress.fraction:.0f} % done")
         progress = self.solver.progress
-        return (f"Luxel: {progress.shots} shots, {100.0 * progress.unshot_fraction:.2f} % "
-                f"unshot, {self.solver.texel_count:,} texels")
+        return (f"Luxel: {progress.shots:,} of {progress.shot_limit:,} shots, "
+                f"{100.0 * progress.unshot_fraction:.2f} % unshot, "
+                f"{self.solver.texel_count:,} texels")
 
     def finish(self):
         """Write the lightmaps, UV maps and stats into the .blend and free the GPU."""
@@ -87,6 +137,7 @@ class BakeJob:
             stats.texels = self.solver.texel_count
             stats.shots = progress.shots
             stats.unshot = 100.0 * progress.unshot_fraction
+            stats.stopped_at_shot_limit = progress.stopped_at_shot_limit
             stats.pages = len(images)
             stats.seconds = time.perf_counter() - self.started
             stats.valid = True
@@ -96,7 +147,68 @@ class BakeJob:
             self.release()
 
     def release(self):
-        self.solver.release()
+        """Free the GPU and drop the set-up where it stands: the .blend is as it was."""
+        if self._set_up_pieces is not None:
+            self._set_up_pieces.close()
+            self._set_up_pieces = None
+        if self.solver is not None:
+            self.solver.release()
+
+    # ------------------------------------------------------------------ the set-up
+    def _set_up_step(self):
+        following = next(self._set_up_pieces, None)
+        if following is None:
+            self._set_up_pieces = None
+            following = SetUpProgress(stage=self.set_up_progress.stage, fraction=1.0)
+        self.set_up_progress = following
+
+    def _set_up(self):
+        """The stages' pieces, one per next(); after each but the last, the progress naming
+        the next, with the share of the whole set-up done."""
+        for index, stage in enumerate(self.stages):
+            if index:   # named before its first piece runs
+                yield SetUpProgress(stage=stage.name, fraction=index / len(self.stages))
+            with _failures_named(stage.name, stage.fix):
+                pieces = stage.run()
+                if inspect.isgenerator(pieces):
+                    for progress in pieces:
+                        yield SetUpProgress(stage=progress.stage, fraction=(
+                            index + progress.fraction) / len(self.stages))
+
+    def _export(self):
+        self.export = yield from self._exporting
+        self.warnings.extend(self.export.warnings)
+        if not self.export.receivers:
+            raise SceneError("no object gets a lightmap: enable 'Receive Lightmap' on a "
+                             "visible mesh (Object properties > Luxel)")
+        if self.scene.luxel.output == 'FILES':
+            lightmap_directory(self.scene)      # refused now rather than after the bake
+
+    def _start_solver(self):
+        """The solver's own set-up (charting, then preprocessing), a piece at a time."""
+        self.solver = Solver(self.export.scene, self.settings, staged=True)
+        yield self.solver.set_up_progress       # the charting, named before it runs
+        while self.solver.set_up_step():
+            yield self.solver.set_up_progress
+        for name in sorted({self.export.scene.object_name(triangle)
+                            for triangle in self.solver.atlas.unpacked}):
+            self.warnings.append(f"'{name}': some triangles are too small to chart at "
+                                 "this texel density: they cast shadows but get no "
+                                 "lightmap; scale them up or raise the density")
+        for index in self.solver.atlas.shrunk:
+            self.warnings.append(
+                f"'{self.export.scene.object_names[index]}' is too large for one lightmap "
+                "image at this texel density and was baked coarser: raise Max Image Size "
+                "or lower its Resolution Scale (Object properties > Luxel)")
+
+
+def shot_limit_message(stats, threshold):
+    """What a bake that stopped at max shots says, before the fix (None when it reached the
+    threshold)."""
+    if not (stats.valid and stats.stopped_at_shot_limit):
+        return None
+    return (f"Luxel stopped at the shot limit ({stats.shots:,} shots) with "
+            f"{stats.unshot:.2f} % unshot, above the threshold of {100.0 * threshold:.2f} %")
 
 
 @contextmanager
@@ -110,4 +222,3 @@ def _failures_named(what, fix):
     except Exception as error:
         raise BakeError(f"{what} failed ({type(error).__name__}: {error}); the file was left "
                         f"as it was. Bake again; if it fails again, {fix}") from error
-

@@ -10,7 +10,7 @@ import bpy
 
 from ..native import LuxelError
 from ..native.settings import add_options, given_settings
-from .bake import BakeJob
+from .bake import BakeJob, shot_limit_message
 from .compare import compare_with_cycles, summary_lines
 from .writeback import remove_lightmaps
 
@@ -98,12 +98,15 @@ def _bake(args):
         settings.directory = os.path.abspath(args.output)
 
     job = BakeJob(context)
-    for warning in job.warnings:
-        print(f"luxel: warning: {warning}")
-    print(f"luxel: {len(job.export.scene.triangles):,} triangles, "
-          f"{job.solver.texel_count:,} texels on {job.solver.atlas.page_count} page(s)",
-          flush=True)
     try:
+        while not job.is_set_up:
+            job.step(seconds=1.0)
+            _print_warnings(job)
+            if not job.is_set_up:
+                print(job.status(), flush=True)
+        print(f"luxel: {len(job.export.scene.triangles):,} triangles, "
+              f"{job.solver.texel_count:,} texels on {job.solver.atlas.page_count} page(s)",
+              flush=True)
         while not job.step(seconds=1.0):
             print(job.status(), flush=True)
     except BaseException:
@@ -113,6 +116,9 @@ def _bake(args):
     stats = settings.stats
     print(f"luxel: done: {stats.texels:,} texels, {stats.shots} shots, {stats.unshot:.2f} % "
           f"unshot, {stats.seconds:.1f} s, {len(images)} image(s)", flush=True)
+    stopped = shot_limit_message(stats, job.settings.threshold)
+    if stopped:
+        print(f"luxel: warning: {stopped}: raise --shots and bake again", flush=True)
     if args.preview:
         render_preview(context.scene, os.path.abspath(args.preview))
         print(f"luxel: preview {args.preview}", flush=True)
@@ -120,6 +126,11 @@ def _bake(args):
         bpy.ops.wm.save_mainfile()
         print(f"luxel: saved {bpy.data.filepath}", flush=True)
     return 0
+
+
+def _print_warnings(job):
+    for warning in job.new_warnings():
+        print(f"luxel: warning: {warning}", flush=True)
 
 
 def _remove(args):

@@ -152,8 +152,9 @@ class SnapshotBake:
 
 def bake_with_snapshots(context):
     job = BakeJob(context)
-    bake = SnapshotBake(job)
     try:
+        job.set_up()
+        bake = SnapshotBake(job)
         while job.solver.step():
             bake.snapshots.after_step(job.solver)
         bake.snapshots.take(job.solver)

@@ -2,12 +2,14 @@
 modifiers and instances applied, diffuse albedo and emission from the materials, Blender's lights
 and the world colour in Cycles' units. What cannot be mapped is approximated and reported."""
 from dataclasses import dataclass, field
+import itertools
 import math
+import time
 
 import bpy
 import numpy as np
 
-from ..native import PointLight, Scene, SceneError, SpotLight, SunLight
+from ..native import PointLight, Scene, SceneError, SetUpProgress, SpotLight, SunLight
 from ..native.atlas import overlapping_faces
 from ..native.scene import UV_TOLERANCE, triangle_areas
 from . import display
@@ -17,6 +19,10 @@ MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (nativ
 DISK_SEGMENTS = 32
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # what Cycles shows for an empty material slot
 TEXTURE_TINT = (0.9999,) * 3       # the solver multiplies textures by it; it must stay below 1
+# export_steps reads objects for this long between its pauses (a modal bake's timer ticks):
+# short for Esc, long enough that walking again past the instances done costs little.
+EXPORT_PIECE_SECONDS = 0.05
+EXPORT_STAGE = "exporting the scene"
 
 
 @dataclass
@@ -123,16 +129,43 @@ AS_EVALUATED_MESH = {'CURVE', 'SURFACE', 'FONT'}
 
 
 def export_scene(context, depsgraph=None):
+    """Export what renders, in one call: export_steps's pieces run to the end."""
+    pieces = export_steps(context, depsgraph)
+    while True:
+        try:
+            next(pieces)
+        except StopIteration as end:
+            return end.value
+
+
+def export_steps(context, depsgraph=None):
     """Export what renders: objects hidden from render (themselves or through a collection)
-    are skipped, instances expanded."""
-    scene = context.scene
-    depsgraph = depsgraph or context.evaluated_depsgraph_get()
+    are skipped, instances expanded. A generator of pieces, each exporting the objects it
+    reaches in EXPORT_PIECE_SECONDS; after each but the last it yields a SetUpProgress (the
+    share of the instances done), and it returns the Export. Only the scene, the depsgraph
+    and the view layer's exclusions are read from ``context``, now."""
+    return _export_pieces(context.scene, depsgraph or context.evaluated_depsgraph_get(),
+                          _excluded_objects(context.view_layer))
+
+
+def _export_pieces(scene, depsgraph, excluded):
     exporter = _Exporter(scene)
     exported = set()
-    for instance in depsgraph.object_instances:
-        exporter.add_instance(instance)
-        exported.add(instance.object.original.name)
-    excluded = _excluded_objects(context.view_layer)
+    total = max(len(depsgraph.object_instances), 1)
+    done = 0
+    while True:
+        # An instance lives only while the depsgraph is walked, and Blender's event loop runs
+        # between pieces: each piece walks again, past the instances already done.
+        deadline = time.perf_counter() + EXPORT_PIECE_SECONDS
+        for instance in itertools.islice(depsgraph.object_instances, done, None):
+            exporter.add_instance(instance)
+            exported.add(instance.object.original.name)
+            done += 1
+            if time.perf_counter() > deadline:
+                break
+        else:
+            break
+        yield SetUpProgress(stage=EXPORT_STAGE, fraction=min(done / total, 1.0))
     # The viewport's depsgraph leaves out objects hidden in the viewport, though they render.
     for obj in scene.objects:
         if (obj.type in RENDERABLE and obj.name not in exported and not obj.hide_render

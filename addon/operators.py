@@ -1,16 +1,17 @@
-"""``luxel.bake``: modal with a progress bar from the UI (Esc cancels), synchronous from scripts
-and in background mode. A bake's failures (all LuxelErrors, see bake.py) become reports naming
-the object and the fix, with the GPU freed and the file as it was."""
+"""``luxel.bake``: modal with a progress bar from the UI (Esc cancels, in the set-up too),
+synchronous from scripts and in background mode. A bake's failures (all LuxelErrors, see
+bake.py) become reports naming the object and the fix, with the GPU freed and the file as it
+was."""
 import bpy
 from bpy.props import StringProperty
 
 from ..native import LuxelError
-from .bake import BakeJob
+from .bake import BakeJob, shot_limit_message
 from .compare import compare_with_cycles, summary_lines
 from .writeback import remove_lightmaps
 
 TIMER_SECONDS = 0.05
-STEP_SECONDS = 0.1       # GPU work per timer tick: long enough to progress, short for the UI
+STEP_SECONDS = 0.1       # work per timer tick: long enough to progress, short for the UI
 
 
 def _can_start(operator, context):
@@ -41,7 +42,7 @@ class LUXEL_OT_bake(bpy.types.Operator):
             return {'CANCELLED'}
         try:
             while not job.step(seconds=1.0):
-                pass
+                self._report_warnings(job)
         except LuxelError as error:
             return self._fail(job, error)
         return self._finish(job)
@@ -57,6 +58,7 @@ class LUXEL_OT_bake(bpy.types.Operator):
         wm.progress_begin(0, 1000)
         wm.modal_handler_add(self)
         LUXEL_OT_bake._modal_running = True
+        context.workspace.status_text_set(self._job.status() + "  (Esc to cancel)")
         return {'RUNNING_MODAL'}
 
     def modal(self, context, event):
@@ -66,12 +68,14 @@ class LUXEL_OT_bake(bpy.types.Operator):
             self.report({'WARNING'}, "Luxel bake cancelled; nothing was changed")
             return {'CANCELLED'}
         if event.type != 'TIMER':
-            return {'PASS_THROUGH'}
+            # The export reads the scene between timer events: edits wait until it is done.
+            return {'RUNNING_MODAL'} if self._job.reading_the_scene else {'PASS_THROUGH'}
         try:
             done = self._job.step(STEP_SECONDS)
         except LuxelError as error:
             self._end_modal(context)
             return self._fail(self._job, error)
+        self._report_warnings(self._job)
         context.window_manager.progress_update(int(1000 * self._job.fraction()))
         context.workspace.status_text_set(self._job.status() + "  (Esc to cancel)")
         if not done:
@@ -81,22 +85,28 @@ class LUXEL_OT_bake(bpy.types.Operator):
 
     def _start(self, context):
         try:
-            job = BakeJob(context)
+            return BakeJob(context)
         except LuxelError as error:
             self.report({'ERROR'}, str(error))
             return None
-        for warning in job.warnings:
+
+    def _report_warnings(self, job):
+        for warning in job.new_warnings():
             self.report({'WARNING'}, warning)
-        return job
 
     def _finish(self, job):
         try:
             job.finish()
         except LuxelError as error:
             return self._fail(job, error)
+        self._report_warnings(job)
         stats = job.scene.luxel.stats
         self.report({'INFO'}, f"Luxel: {stats.texels:,} texels, {stats.shots} shots, "
                               f"{stats.unshot:.2f} % unshot, {stats.seconds:.1f} s")
+        stopped = shot_limit_message(stats, job.settings.threshold)
+        if stopped:
+            self.report({'WARNING'}, f"{stopped}: raise Max Shots (Render properties > Luxel "
+                                     "Lightmaps) and bake again")
         return {'FINISHED'}
 
     def _fail(self, job, error):

@@ -84,6 +84,11 @@ class LUXEL_PT_render_stats(_RenderSubPanel, bpy.types.Panel):
         column.label(text=f"Time: {stats.seconds:.1f} s")
         column.label(text=f"Unshot: {stats.unshot:.2f} %")
         column.label(text=f"Images: {stats.pages}")
+        if stats.stopped_at_shot_limit:
+            column = self.layout.column(align=True)
+            column.label(text=f"Stopped at the shot limit: {stats.unshot:.2f} % unshot",
+                         icon='ERROR')
+            column.label(text="Raise Max Shots and bake again")
 
 
 class LUXEL_PT_render_compare(_RenderSubPanel, bpy.types.Panel):

@@ -23,6 +23,9 @@ class LuxelBakeStats(bpy.types.PropertyGroup):
     seconds: FloatProperty(name="Seconds", description="Wall-clock time of the bake")
     unshot: FloatProperty(name="Unshot", subtype='PERCENTAGE',
                           description="Share of the emitted power still unshot at the end")
+    stopped_at_shot_limit: BoolProperty(name="Stopped at the Shot Limit",
+                                        description="The bake stopped at Max Shots with more "
+                                        "than the threshold still unshot")
     pages: IntProperty(name="Pages", description="Lightmap images written")
     valid: BoolProperty(name="Baked", description="A bake has finished in this scene")
 

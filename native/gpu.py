@@ -130,15 +130,17 @@ def using(ctx):
     moderngl's own ``with ctx:`` leaves no context current on exit (EGL), which would pull the
     rug from under Blender's drawing; on Linux the previous EGL or GLX context is restored."""
     saved = _save_current()
-    with ctx:
-        # Rebind the framebuffer that was bound on entry: moderngl rebinds its last-used
-        # framebuffer when it creates another, which fails once that one is released.
-        bound = ctx.detect_framebuffer()
-        try:
-            yield ctx
-        finally:
-            bound.use()
-    _restore(saved)
+    try:
+        with ctx:
+            # Rebind the framebuffer that was bound on entry: moderngl rebinds its last-used
+            # framebuffer when it creates another, which fails once that one is released.
+            bound = ctx.detect_framebuffer()
+            try:
+                yield ctx
+            finally:
+                bound.use()
+    finally:   # an error in the block gives the caller's context back too
+        _restore(saved)
 
 
 def load_shader(name):

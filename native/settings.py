@@ -120,6 +120,11 @@ SUBDIVISION_CHOICES = (
 PROJECTIONS = tuple(choice.identifier for choice in PROJECTION_CHOICES)
 SUBDIVISIONS = tuple(choice.identifier for choice in SUBDIVISION_CHOICES)
 MAX_SUBDIVISION_LEVEL = 3
+# Max Shots 0 stops a bake at this many shots per shooting block (4^shoot_level texels), at
+# least AUTOMATIC_MIN_SHOTS: the shots to reach the threshold grow with the blocks, a small
+# scene's blocks shoot many times over (bench/bench_shot_limit.py, BENCHMARKS.md).
+AUTOMATIC_SHOTS_PER_BLOCK = 20
+AUTOMATIC_MIN_SHOTS = 10000
 
 # Settings has its fields in this order (and report.json its settings).
 SETTINGS = (
@@ -145,8 +150,11 @@ SETTINGS = (
             "misses the scene does not count)",
             exposed=Exposed(label="Threshold", option="--threshold", subtype='FACTOR',
                             digits=4)),
-    Setting(name="max_shots", kind=int, default=10000, unit="shots", minimum=0,
-            help="Stop after this many shots",
+    # 0 scales the limit with the scene (shot_limit): shots to converge grow with its blocks.
+    Setting(name="max_shots", kind=int, default=0, unit="shots", minimum=0, maximum=2**31 - 1,
+            help="Stop after this many shots even above the threshold; 0: automatic, "
+            f"{AUTOMATIC_SHOTS_PER_BLOCK} per shooting block of texels, at least "
+            f"{AUTOMATIC_MIN_SHOTS}",
             exposed=Exposed(label="Max Shots", option="--shots")),
     Setting(name="memory_limit", kind=int, default=4 << 30, unit="bytes", minimum=1,
             help="GPU memory Luxel may use"),
@@ -199,6 +207,15 @@ SETTING_PAIRS = (
 )
 EXPOSED_SETTINGS = tuple(setting for setting in SETTINGS if setting.exposed)
 SETTINGS_BY_NAME = {setting.name: setting for setting in SETTINGS}
+
+
+def shot_limit(settings, texels):
+    """The shots a bake of ``texels`` occupied texels stops at: max_shots, or where that is 0
+    the automatic limit."""
+    if settings.max_shots:
+        return settings.max_shots
+    blocks = texels / (1 << settings.shoot_level) ** 2
+    return max(AUTOMATIC_MIN_SHOTS, math.ceil(AUTOMATIC_SHOTS_PER_BLOCK * blocks))
 
 
 def _validate(settings):

@@ -7,6 +7,10 @@ evaluation paper), in lightmap space, with the hemicube for visibility.
     pages = solver.result()                              # current lightmaps, any time
     solver.release()                                     # every GL object, in one place
 
+    solver = Solver(scene, settings, staged=True)        # the set-up in pieces, for a UI
+    while solver.set_up_step():                          # charting (xatlas), preprocessing
+        print(solver.set_up_progress)                    # the next piece's stage, share done
+
 Per texel the maps hold world position and area, normal, albedo, the receiving surface's
 number, the subdivision level, the accumulated irradiance E and the unshot radiance. A
 lightmap texel is rho * E / pi, the reflected diffuse radiance a Cycles DIFFUSE bake (direct
@@ -27,10 +31,15 @@ from .gpu import GLObjects, create_context, using
 from .memory import BYTES_PER_TEXEL  # noqa: F401  (the add-on's tests read it here)
 from .postprocess import Ledger  # noqa: F401  (native's API)
 from .selection import MAX_COARSER_LEVELS, ShotQueue
-from .settings import Settings
+from .settings import Settings, shot_limit
 from .state import BakeState, Shooter, View, read_map
 
 PHASES = ("preprocess", "selection", "visibility", "subdivision", "receivers", "postprocess")
+# What Solver(..., staged=True).set_up_step() works through, in order: xatlas charts the
+# surface (one call, minutes on a million triangles), then the maps are made on the GPU.
+SET_UP_STAGES = ("charting", "preprocessing")
+# Pieces of the preprocessing stage, each one step of set_up_step().
+PREPROCESS_PIECES = 4
 # A point of state.blend_points: its texel (2 floats) and value (4 floats).
 POINT_BYTES = (2 + 4) * 4
 
@@ -38,11 +47,24 @@ POINT_BYTES = (2 + 4) * 4
 @dataclass
 class Progress:
     shots: int
-    unshot_fraction: float   # measured before the latest shot
+    # Measured at the latest selection of shooters; once finished, after the last shot.
+    unshot_fraction: float
     seconds: float
     converged: bool          # the unshot fraction reached the threshold (or nothing is left)
-    finished: bool           # converged, or stopped at max_shots
+    finished: bool           # converged, or stopped at the shot limit
     texels: int
+    shot_limit: int          # Settings.max_shots, or the automatic limit where it is 0
+
+    @property
+    def stopped_at_shot_limit(self):
+        """Finished at the shot limit with more than the threshold still unshot."""
+        return self.finished and not self.converged
+
+
+@dataclass
+class SetUpProgress:
+    stage: str          # what the next set_up_step() works on: one of SET_UP_STAGES
+    fraction: float     # the share of the set-up done
 
 
 class Solver:
@@ -50,9 +72,10 @@ class Solver:
     release. Pass ``ctx`` to share an existing moderngl context; every call makes it current
     with ``with ctx:`` and restores the caller's context afterwards."""
 
-    def __init__(self, scene, settings=None, ctx=None):
-        # Back faces that receive are solved as triangles of their own, after the scene's.
-        self.scene = scene.with_back_faces()
+    def __init__(self, scene, settings=None, ctx=None, *, staged=False):
+        """Chart and preprocess ``scene``; with ``staged`` only make the GL context, and leave
+        the set-up to set_up_step(), a piece at a time."""
+        self._given_scene = scene
         self.settings = settings or Settings()
         self.settings.validate()
         self.timings = dict.fromkeys(PHASES, 0.0)
@@ -63,23 +86,50 @@ class Solver:
         self._owns_context = ctx is None
         self.ctx = None
         self._gl = None
+        self._set_up_pieces = None
+        self.set_up_progress = SetUpProgress(stage=SET_UP_STAGES[0], fraction=0.0)
         self._started = time.perf_counter()
         try:
             self.ctx = ctx if ctx is not None else create_context()
             self._gl = GLObjects(self.ctx)
-            with using(self.ctx):
-                self._timed("preprocess", self._preprocess)
         except BaseException:
             self.release()
             raise
+        self._set_up_pieces = self._set_up()
+        if not staged:
+            while self.set_up_step():
+                pass
 
     # ----------------------------------------------------------------- public API
+    def set_up_step(self):
+        """Do the next piece of the set-up: True while pieces remain, set_up_progress naming
+        the next. A piece is one call that cannot be interrupted: the charting piece is
+        xatlas's. A failure releases the solver. Solver(..., staged=True) leaves the whole
+        set-up to this; step() finishes what is left of it."""
+        if self._set_up_pieces is None:
+            return False
+        try:
+            with using(self.ctx):
+                following = self._timed("preprocess", next, self._set_up_pieces, None)
+        except BaseException:
+            self.release()
+            raise
+        if following is None:
+            self._set_up_pieces = None
+            following = SetUpProgress(stage=SET_UP_STAGES[-1], fraction=1.0)
+        self.set_up_progress = following
+        return self._set_up_pieces is not None
+
     def step(self):
         """Shoot once: the pending lights first, then the texel patches with the most unshot
         power. Returns False, shooting nothing, once converged or out of shots."""
         if self.finished or self.ctx is None:
             return False
-        if self.shots >= self.settings.max_shots:
+        while self.set_up_step():
+            pass
+        if self.shots >= self.shot_limit:
+            with using(self.ctx):   # the unshot fraction the bake stops at, measured
+                self._measure_unshot()
             self.finished = True
             return False
         with using(self.ctx):
@@ -104,7 +154,7 @@ class Solver:
     @property
     def progress(self):
         return Progress(self.shots, self._unshot_fraction, time.perf_counter() - self._started,
-                        self.converged, self.finished, self.texel_count)
+                        self.converged, self.finished, self.texel_count, self.shot_limit)
 
     def result(self):
         """Current lightmaps, one float32 (height, width, 4) array per atlas page, row 0 at
@@ -146,6 +196,7 @@ class Solver:
 
     def release(self):
         """Release every GL object (and the context, if the solver made it). Idempotent."""
+        self._set_up_pieces = None
         if self._gl is not None:
             with using(self.ctx):
                 self._gl.release()
@@ -165,6 +216,12 @@ class Solver:
         return 0 if self._gl is None else len(self._gl)
 
     @property
+    def shot_limit(self):
+        """Where step() stops above the threshold: Settings.max_shots, or where it is 0 a
+        limit that grows with the scene's texels (settings.shot_limit)."""
+        return shot_limit(self.settings, self.texel_count)
+
+    @property
     def texel_count(self):
         return self._energy.texel_count
 
@@ -182,9 +239,13 @@ class Solver:
         """(width, height) of the pages the GPU works on: the charts packed tight."""
         return self._state.packed.width, self._state.packed.height
 
-    # ----------------------------------------------------------------- preprocess
-    def _preprocess(self):
-        settings, scene, gl = self.settings, self.scene, self._gl
+    # ----------------------------------------------------------------- set-up
+    def _set_up(self):
+        """The set-up's pieces, one per next(): charting, then preprocessing. After each
+        piece but the last it yields the progress naming the next."""
+        # Back faces that receive are solved as triangles of their own, after the scene's.
+        self.scene = scene = self._given_scene.with_back_faces()
+        settings, gl = self.settings, self._gl
         surfaces, emitting_surfaces = preprocess.number_surfaces(scene)
         state = self._state = BakeState(
             ctx=self.ctx, gl=gl, scene=scene, settings=settings,
@@ -199,14 +260,19 @@ class Solver:
         self._memory_bytes = memory.memory_needed(state.packed, settings, state.map_size)
         memory.check_memory(state.packed, settings, self._memory_bytes,
                             self._fits(state.packed), self._fits_at)
+        yield self._preprocessing(0)
 
         preprocess.create_gpu_state(state)   # programs, albedo textures, pages
         thin_gaps.set_constant_uniforms(state.programs["patch"])
+        yield self._preprocessing(1)
+
         raster = preprocess.rasterize(state)
         self._slots = subdivision.prepare(state, raster, preprocess.RASTER_LAYOUT)
         if settings.subdivision == "REGULAR":
             subdivision.raise_levels(state, self._slots, np.nonzero(self._slots.receives)[0],
                                      settings.subdivision_level)
+        yield self._preprocessing(2)
+
         self._visibility = visibility.create(state)
         self._gaps = thin_gaps.create(state)
         block = 1 << (settings.shoot_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
@@ -219,6 +285,7 @@ class Solver:
         state.points_vao = gl.vertex_array(state.programs["take"], [
             (state.points_vbo, "2f 4f", "in_texel", "in_taken")])
         self._queue = ShotQueue()
+        yield self._preprocessing(3)
 
         self._measure_emission()
         lights = list(scene.lights) + receivers.sky_suns(scene.sky, settings.sky_directions)
@@ -228,6 +295,13 @@ class Solver:
         energy.emitted = energy.emitted_maps + sum((self._light_power(l) for l in pending),
                                                    np.zeros(3))
         energy.emitted_scalar = float(np.mean(energy.emitted))
+
+    @staticmethod
+    def _preprocessing(pieces_done):
+        """The progress before the preprocessing stage's piece ``pieces_done`` + 1: charting
+        counts as the first half of the set-up."""
+        return SetUpProgress(stage=SET_UP_STAGES[1],
+                             fraction=0.5 + 0.5 * pieces_done / PREPROCESS_PIECES)
 
     def _measure_emission(self):
         self._energy = preprocess.measure_emission(self._state)
@@ -251,16 +325,11 @@ class Solver:
     def _select_shots(self):
         """Measure the unshot power and queue the next shots: up to shooters_per_selection
         pending lights, or as many patches. False once converged."""
-        queue, energy = self._queue, self._energy
-        candidates, total = self._timed("selection", selection.measure, self._state)
-        pending = sum(float(np.mean(self._light_power(light))) for light in queue.pending)
-        self._unshot_fraction = (total + pending) / max(
-            energy.emitted_scalar - energy.sunlight_missed, 1e-30)
-        self.converged = (self._unshot_fraction <= self.settings.threshold
-                          or (not queue.pending and not candidates))
+        queue = self._queue
+        candidates = self._measure_unshot()
         if self.converged:
             return False
-        count = min(self.settings.shooters_per_selection, self.settings.max_shots - self.shots)
+        count = min(self.settings.shooters_per_selection, self.shot_limit - self.shots)
         if queue.pending:
             queue.shots, queue.pending = queue.pending[:count], queue.pending[count:]
             return True
@@ -268,6 +337,18 @@ class Solver:
         # The GPU's float sums saw power the texels do not hold.
         self.converged = not queue.shots
         return not self.converged
+
+    def _measure_unshot(self):
+        """Measure the unshot fraction, and whether it converged; returns the candidate
+        blocks to shoot."""
+        queue, energy = self._queue, self._energy
+        candidates, total = self._timed("selection", selection.measure, self._state)
+        pending = sum(float(np.mean(self._light_power(light))) for light in queue.pending)
+        self._unshot_fraction = (total + pending) / max(
+            energy.emitted_scalar - energy.sunlight_missed, 1e-30)
+        self.converged = (self._unshot_fraction <= self.settings.threshold
+                          or (not queue.pending and not candidates))
+        return candidates
 
     def _make_shooters(self, candidates, count):
         """Shooters of up to ``count`` candidate blocks (or of their finer parts), strongest

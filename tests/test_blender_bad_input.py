@@ -3,6 +3,7 @@ the fix, and the .blend (images, UV maps, materials, meshes, Luxel's results) an
 files exactly as they were whenever a bake is refused, cancelled or fails."""
 import errno
 import hashlib
+import itertools
 import math
 import os
 import re
@@ -123,17 +124,20 @@ class OperatorDriver:
     bpy module (background mode) invoke() runs execute(), and no timer or key events come, so
     Esc cannot be pressed: start_modal() does what invoke() does for a window, and event()
     hands modal() a fake event."""
-    execute, modal, _start, _finish, _fail, _end_modal = (
+    execute, modal, _start, _finish, _fail, _end_modal, _report_warnings = (
         LUXEL_OT_bake.execute, LUXEL_OT_bake.modal, LUXEL_OT_bake._start,
-        LUXEL_OT_bake._finish, LUXEL_OT_bake._fail, LUXEL_OT_bake._end_modal)
+        LUXEL_OT_bake._finish, LUXEL_OT_bake._fail, LUXEL_OT_bake._end_modal,
+        LUXEL_OT_bake._report_warnings)
 
     def __init__(self):
         self.reports = []
+        self.progress = []      # the progress bar's values, 0..1000
+        self.status = []        # the status bar's texts (None: cleared)
         self._timer = object()
         wm = SimpleNamespace(event_timer_remove=lambda timer: None, progress_end=lambda: None,
-                             progress_update=lambda value: None)
+                             progress_update=self.progress.append)
         self.context = SimpleNamespace(window_manager=wm, workspace=SimpleNamespace(
-            status_text_set=lambda text: None))
+            status_text_set=self.status.append))
 
     def report(self, kind, message):
         self.reports.append((next(iter(kind)), message))
@@ -147,7 +151,8 @@ class OperatorDriver:
 
 
 def released(job):
-    return job.solver.ctx is None and job.solver.gl_object_count == 0
+    """The job's GPU freed (a job cancelled before the solver started has none)."""
+    return job.solver is None or (job.solver.ctx is None and job.solver.gl_object_count == 0)
 
 
 @pytest.fixture(autouse=True)
@@ -274,6 +279,7 @@ def test_albedo_of_one_or_more_is_clamped_and_the_energy_stays_bounded():
     walls.inputs["Specular IOR Level"].default_value = 0.0
     job = addon.bake.BakeJob(bpy.context)
     try:
+        job.set_up()
         assert any(w.startswith("material 'walls': a base colour of 1 or more is lowered to "
                                 "0.999") for w in job.warnings)
         assert job.export.scene.albedo.max() == pytest.approx(0.999)
@@ -400,6 +406,7 @@ def test_cancel_at_any_moment_leaves_the_file_as_it_was(moment, rebake):
         scene.objects["block"].location.x -= 0.2
     before = blend_state(scene)
     job = addon.bake.BakeJob(bpy.context)
+    job.set_up()
     if moment == "after some steps":
         job.step(0.2)
     elif moment == "after the last step":
@@ -417,6 +424,8 @@ def test_esc_in_the_modal_bake_cancels_frees_the_gpu_and_changes_nothing():
     driver = OperatorDriver()
     driver.start_modal()
     assert driver.event('TIMER') == {'RUNNING_MODAL'}
+    while not driver._job.is_set_up:
+        assert driver.event('TIMER') == {'RUNNING_MODAL'}
     assert driver.event('MOUSEMOVE') == {'PASS_THROUGH'}
     assert driver.event('ESC') == {'CANCELLED'}
     assert driver.reports == [('WARNING', "Luxel bake cancelled; nothing was changed")]
@@ -434,6 +443,74 @@ def test_the_modal_bake_driven_by_timer_events_finishes_like_execute():
             break
     assert result == {'FINISHED'} and not LUXEL_OT_bake._modal_running
     assert scene.luxel.stats.valid and released(driver._job)
+
+
+@pytest.fixture
+def one_piece_per_event(monkeypatch):
+    """Each timer event does one piece of the set-up, and each piece of the export one
+    object: Esc can come between any two."""
+    monkeypatch.setattr(addon.operators, "STEP_SECONDS", 0.0)
+    monkeypatch.setattr(addon.export, "EXPORT_PIECE_SECONDS", 0.0)
+
+
+def events_into(driver, stage, pieces):
+    """Timer events until ``pieces`` of the set-up's ``stage`` are done (0: it is named next)."""
+    done = 0
+    while not (driver._job.set_up_progress.stage == stage and done == pieces):
+        done += driver._job.set_up_progress.stage == stage
+        assert driver.event('TIMER') == {'RUNNING_MODAL'}
+        assert not driver._job.is_set_up, f"the set-up ended before {pieces} of {stage}"
+
+
+@pytest.mark.parametrize("stage, pieces", (("exporting the scene", 1),
+                                           ("starting the GPU solver", 0),
+                                           ("charting", 0), ("preprocessing", 1)))
+def test_esc_in_each_set_up_stage_cancels_and_changes_nothing(one_piece_per_event, stage,
+                                                              pieces):
+    scene = fast(room_scene())
+    bpy.ops.luxel.bake()
+    scene.objects["block"].location.x -= 0.2
+    before = blend_state(scene)
+    driver = OperatorDriver()
+    driver.start_modal()
+    events_into(driver, stage, pieces)
+    job = driver._job
+    if stage == "exporting the scene":
+        assert 0.0 < job.set_up_progress.fraction < 0.5
+        # The export reads the scene: edits wait.
+        assert driver.event('MOUSEMOVE') == {'RUNNING_MODAL'}
+    if stage == "preprocessing":
+        assert job.solver.gl_object_count > 0     # maps on the GPU to free
+    assert driver.event('ESC') == {'CANCELLED'}
+    assert driver.reports == [('WARNING', "Luxel bake cancelled; nothing was changed")]
+    assert released(job) and not LUXEL_OT_bake._modal_running
+    assert blend_state(scene) == before
+
+
+def test_the_modal_bake_names_each_set_up_stage_and_its_progress_moves_forward(
+        one_piece_per_event):
+    fast(room_scene())
+    driver = OperatorDriver()
+    driver.start_modal()
+    stages = []
+    while not driver._job.is_set_up:
+        assert driver.event('TIMER') == {'RUNNING_MODAL'}
+        stages.append((driver._job.set_up_progress.stage, driver.progress[-1]))
+    for _ in range(3):
+        assert driver.event('TIMER') == {'RUNNING_MODAL'}
+    assert driver.event('ESC') == {'CANCELLED'}
+    named = [stage for stage, _ in itertools.groupby(stage for stage, _ in stages)]
+    assert named == ["exporting the scene", "starting the GPU solver", "charting",
+                     "preprocessing"]
+    assert driver.progress == sorted(driver.progress) and driver.progress[-1] > 0
+    first = {stage: value for stage, value in reversed(stages)}
+    assert 0 < first["exporting the scene"] < first["charting"] < first["preprocessing"]
+    shown = [text for text in driver.status if text]
+    for stage in named:
+        assert any(text.startswith(f"Luxel: {stage}") and text.endswith("(Esc to cancel)")
+                   for text in shown), stage
+    assert any("charting (xatlas cannot be interrupted" in text for text in shown)
+    assert " shots, " in shown[-1]
 
 
 SOLVER_FAILURES = (native.GLUnavailableError("the GL context was lost"),
@@ -467,6 +544,8 @@ def test_a_solver_failure_reports_an_error_and_returns_cancelled(monkeypatch, er
         assert driver.execute(bpy.context) == {'CANCELLED'}
     else:
         driver.start_modal()
+        while not driver._job.is_set_up:
+            assert driver.event('TIMER') == {'RUNNING_MODAL'}
         # Each timer event steps for a time budget: on a busy machine the failing step may
         # come a few events later.
         results = [driver.event('TIMER') for _ in range(failing.after + 2)
@@ -576,3 +655,71 @@ def test_a_disk_filling_up_while_writing_exr_leaves_no_file_and_no_saved_blend(
     assert blend_state(scene, maps) == before       # no temporary or staged file either
     assert rebake or not maps.exists()
     assert blend.read_bytes() == saved
+
+
+# ------------------------------------------------------------------------ the shot limit
+class LabelRecorder:
+    """Stands in for a panel's UILayout: records the texts of its labels."""
+
+    def __init__(self, labels=None):
+        self.labels = [] if labels is None else labels
+
+    def column(self, **_):
+        return LabelRecorder(self.labels)
+
+    row = column
+
+    def label(self, text="", **_):
+        self.labels.append(text)
+
+    def prop(self, *_, **__):
+        pass
+
+    operator = prop
+
+
+def last_bake_labels(scene):
+    layout = LabelRecorder()
+    addon.panels.LUXEL_PT_render_stats.draw(SimpleNamespace(layout=layout),
+                                            SimpleNamespace(scene=scene))
+    return layout.labels
+
+
+STOPPED = re.compile(r"stopped at the shot limit \(12 shots\) with ([0-9.]+) % unshot")
+
+
+def test_a_bake_stopped_at_the_shot_limit_says_so_with_the_unshot_share(capsys):
+    scene = room_scene()
+    scene.luxel.texel_density, scene.luxel.threshold, scene.luxel.max_shots = 5.0, 0.001, 12
+    driver = OperatorDriver()
+    assert driver.execute(bpy.context) == {'FINISHED'}
+    stats = scene.luxel.stats
+    assert stats.shots == 12 and stats.stopped_at_shot_limit
+    assert stats.unshot > 100.0 * 0.001         # the threshold was not reached
+    stopped = [(kind, message) for kind, message in driver.reports if STOPPED.search(message)]
+    assert len(stopped) == 1 and stopped[0][0] == 'WARNING'
+    assert float(STOPPED.search(stopped[0][1]).group(1)) == pytest.approx(stats.unshot,
+                                                                          abs=0.01)
+    assert "raise Max Shots" in stopped[0][1]
+    assert any(label.startswith("Stopped at the shot limit") and label.endswith("% unshot")
+               for label in last_bake_labels(scene))
+
+    assert run_cli(["bake", "--density", "5", "--threshold", "0.001", "--shots", "12"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"luxel: warning: Luxel " + STOPPED.pattern + r".*raise --shots", out)
+
+
+def test_a_converged_bake_does_not_mention_the_shot_limit(capsys):
+    scene = fast(room_scene())
+    driver = OperatorDriver()
+    assert driver.execute(bpy.context) == {'FINISHED'}
+    assert scene.luxel.stats.valid and not scene.luxel.stats.stopped_at_shot_limit
+    assert scene.luxel.stats.unshot <= 100.0 * scene.luxel.threshold
+    assert not any("shot limit" in message for _, message in driver.reports)
+    assert not any("shot limit" in label for label in last_bake_labels(scene))
+    assert run_cli(["bake"]) == 0
+    out = capsys.readouterr().out
+    assert "luxel: done" in out and "shot limit" not in out
+    # The set-up's stages, in order, before the shots.
+    assert (out.index("Luxel: charting") < out.index("Luxel: preprocessing")
+            < out.index(" triangles, ") < out.index("luxel: done"))

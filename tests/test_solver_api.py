@@ -9,7 +9,8 @@ import pytest
 
 import scenes
 from conftest import ROOT
-from native import PointLight, Settings, Solver, SpotLight, SunLight
+from native import PointLight, SetUpProgress, Settings, Solver, SpotLight, SunLight
+from native import solver as solver_module
 from native.samples import SceneBuilder, cornell_box
 
 
@@ -135,6 +136,114 @@ def test_setup_failing_halfway_releases_what_it_made(ctx, gl_clean, monkeypatch)
     assert len(made) > 20
     assert all(type(obj.mglo).__name__ == "InvalidObject" for obj in made)
     monkeypatch.setattr(Solver, "_measure_emission", original)
+
+
+def test_a_failing_set_up_gives_the_callers_context_back(ctx, monkeypatch):
+    """Inside Blender another context is current: a failure must hand it back too."""
+    def fail(self):
+        raise RuntimeError("simulated failure in the set-up")
+
+    monkeypatch.setattr(Solver, "_measure_emission", fail)
+    other = moderngl.create_standalone_context(backend="egl")
+    try:
+        with other:
+            with pytest.raises(RuntimeError, match="simulated"):
+                Solver(scenes.furnace_cube(0.5), Settings(texel_density=4), ctx=ctx)
+            framebuffer = other.simple_framebuffer((4, 4))
+            framebuffer.use()
+            framebuffer.clear(0.0, 1.0, 0.2, 1.0)
+            pixel = np.frombuffer(framebuffer.read(components=4), dtype=np.uint8)[:4]
+            assert pixel.tolist() == [0, 255, 51, 255]
+            framebuffer.release()
+    finally:
+        other.release()
+
+
+def test_a_staged_set_up_charts_then_preprocesses_a_piece_at_a_time(ctx, gl_clean,
+                                                                     monkeypatch):
+    """Solver(..., staged=True) leaves the set-up to set_up_step(): xatlas charts in the first
+    piece, before any map is on the GPU; each piece's progress names the stage that follows
+    and grows to 1. The bake then fills the furnace to its reflected radiance
+    rho * L / (1 - rho): 1 at albedo 0.5 and emitted radiance 1."""
+    charted = []
+    original = solver_module.build_atlas
+    monkeypatch.setattr(solver_module, "build_atlas",
+                        lambda *args, **kwargs: charted.append(args[1]) or original(*args,
+                                                                                   **kwargs))
+    solver = Solver(scenes.furnace_cube(0.5), Settings(texel_density=8, threshold=0.002,
+                                                       hemicube_resolution=64),
+                    ctx=ctx, staged=True)
+    try:
+        assert solver.set_up_progress == SetUpProgress(stage="charting", fraction=0.0)
+        assert not charted and solver.gl_object_count == 0
+        assert solver.set_up_step()
+        assert charted and solver.gl_object_count == 0
+        seen = [solver.set_up_progress]
+        while solver.set_up_step():
+            seen.append(solver.set_up_progress)
+        assert solver.gl_object_count > 20
+        assert len(seen) >= 3 and {progress.stage for progress in seen} == {"preprocessing"}
+        fractions = [0.0] + [progress.fraction for progress in seen] + [
+            solver.set_up_progress.fraction]
+        assert fractions[-1] == 1.0 and all(np.diff(fractions) > 0)
+        assert not solver.set_up_step() and len(charted) == 1
+        solver.run()
+        values = np.concatenate([page[page[..., 3] == 1][:, :3] for page in solver.result()])
+        assert len(values) == 6 * 8 * 8 and np.max(np.abs(values - 1.0)) < 0.01
+    finally:
+        solver.release()
+
+
+def test_a_set_up_released_halfway_frees_everything_and_does_no_more(ctx, gl_clean):
+    solver = Solver(lit_cornell_box(), Settings(texel_density=10), ctx=ctx, staged=True)
+    for _ in range(3):
+        assert solver.set_up_step()
+    made = list(solver._gl._objects)
+    assert made
+    solver.release()
+    assert solver.gl_object_count == 0
+    assert all(type(obj.mglo).__name__ == "InvalidObject" for obj in made)
+    assert not solver.set_up_step() and not solver.step()
+
+
+def test_step_finishes_a_staged_set_up_first(ctx, gl_clean):
+    with Solver(cornell_box(), Settings(texel_density=10, max_shots=4), ctx=ctx,
+                staged=True) as solver:
+        assert solver.step() and solver.set_up_progress.fraction == 1.0
+        assert solver.run().shots == 4
+
+
+def test_a_bake_stopped_by_max_shots_says_so_with_the_unshot_fraction_it_reached(ctx,
+                                                                                  gl_clean):
+    """13 shots: the last selection measured the unshot power before shot 9; the fraction
+    reported at the limit is the one after shot 13, the energy ledger's."""
+    with Solver(cornell_box(), Settings(texel_density=20, hemicube_resolution=32,
+                                        max_shots=13), ctx=ctx) as solver:
+        progress = solver.run()
+        ledger = solver.ledger()
+        assert progress.shots == 13 and progress.finished
+        assert progress.stopped_at_shot_limit and not progress.converged
+        assert progress.unshot_fraction == pytest.approx(
+            ledger.unshot.mean() / ledger.emitted.mean(), rel=1e-3)
+    with Solver(cornell_box(), Settings(texel_density=20, hemicube_resolution=32,
+                                        threshold=0.3), ctx=ctx) as solver:
+        progress = solver.run()
+        assert progress.converged and not progress.stopped_at_shot_limit
+
+
+def test_max_shots_0_stops_at_a_limit_that_grows_with_the_texels(ctx, gl_clean):
+    """A furnace cube at d texels per metre has 6 d^2 texels, in blocks of 4^shoot_level:
+    the automatic limit is AUTOMATIC_SHOTS_PER_BLOCK of them a block, at least
+    AUTOMATIC_MIN_SHOTS; a max_shots given is the limit."""
+    from native.settings import AUTOMATIC_MIN_SHOTS, AUTOMATIC_SHOTS_PER_BLOCK
+    for density, max_shots in ((4, 0), (48, 0), (48, 77)):
+        with Solver(scenes.furnace_cube(0.5), Settings(texel_density=density, shoot_level=2,
+                                                       max_shots=max_shots), ctx=ctx) as solver:
+            assert solver.texel_count == 6 * density ** 2
+            automatic = max(AUTOMATIC_MIN_SHOTS,
+                            AUTOMATIC_SHOTS_PER_BLOCK * 6 * density ** 2 // 16)
+            assert solver.shot_limit == solver.progress.shot_limit == (max_shots or automatic)
+    assert AUTOMATIC_SHOTS_PER_BLOCK * 6 * 48 ** 2 // 16 > AUTOMATIC_MIN_SHOTS
 
 
 def test_own_context_is_created_and_released():
