@@ -8,6 +8,7 @@ import time
 from ..native import LuxelError, SceneError, Solver
 from . import display
 from .export import export_scene
+from .materials import evaluate_materials
 from .writeback import lightmap_directory, write_back
 
 GPU_FIX = "update the GPU driver or lower the texel density (Render properties > Luxel Lightmaps)"
@@ -29,8 +30,11 @@ class BakeJob:
                              "visible mesh (Object properties > Luxel)")
         if self.scene.luxel.output == 'FILES':
             lightmap_directory(self.scene)      # refused now rather than after the bake
+        settings = self.scene.luxel.solver_settings()
+        with _failures_named("evaluating the materials with Cycles", BUG_FIX):
+            evaluate_materials(context, self.export, settings)
         with _failures_named("starting the GPU solver", GPU_FIX):
-            self.solver = Solver(self.export.scene, self.scene.luxel.solver_settings())
+            self.solver = Solver(self.export.scene, settings)
         for name in sorted({self.export.scene.object_name(triangle)
                             for triangle in self.solver.atlas.unpacked}):
             self.export.warnings.append(f"'{name}': some triangles are too small to chart at "

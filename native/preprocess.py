@@ -39,7 +39,7 @@ HEMISPHERE_MAP_SCALE = 2
 
 @dataclass
 class RasterVertices:
-    """The lightmap vertex buffer, drawn in runs of (page, albedo texture): per triangle of
+    """The lightmap vertex buffer, drawn in runs of (page, albedo and emission textures): per triangle of
     it (a 'slot') the scene triangle and the page."""
     vbo: object
     slot_triangles: np.ndarray
@@ -76,13 +76,14 @@ def number_surfaces(scene):
 
 
 def create_gpu_state(state):
-    """The programs and their constant uniforms, the albedo textures and the pages' maps."""
+    """The programs and their constant uniforms, the material textures and the pages' maps."""
     gl = state.gl
     state.programs = create_programs(gl, state.settings)
     state.fullscreen = {name: gl.vertex_array(state.programs[name], [])
                         for name in ("block", "argmax", "patch", "light")}
     set_constant_uniforms(state)
-    state.albedo_textures = albedo_textures(gl, state.scene)
+    state.albedo_textures = material_textures(gl, state.scene.albedo_textures)
+    state.emission_textures = material_textures(gl, state.scene.emission_textures)
     size = (state.packed.width, state.packed.height)
     state.pages = [allocate_page(gl, state.settings, size)
                    for _ in range(state.packed.page_count)]
@@ -123,7 +124,8 @@ def set_constant_uniforms(state):
                  "u_emitting_surfaces": state.emitting_surfaces,
                  "u_visibility": 0, **{f"u_{name}": unit for name, unit in MAP_UNITS.items()}}
     constants = {
-        "attributes": {"u_atlas_size": size, "u_albedo_texture": 0},
+        "attributes": {"u_atlas_size": size, "u_albedo_texture": 0,
+                       "u_emission_texture": 1},
         "area": {"u_atlas_size": size},
         "moments": {"u_atlas_size": size, "u_normal": 0},
         "block": {"u_block": 1 << settings.shoot_level, "u_position": 0, "u_unshot": 1},
@@ -147,9 +149,9 @@ def set_constant_uniforms(state):
             set_uniform(state.programs[name], uniform, value)
 
 
-def albedo_textures(gl, scene):
+def material_textures(gl, images):
     textures = []
-    for image in scene.albedo_textures:
+    for image in images:
         image = np.asarray(image, dtype=np.float32)
         rgba = np.ones(image.shape[:2] + (4,), np.float32)
         rgba[..., :image.shape[2]] = image
@@ -202,17 +204,18 @@ def rasterize(state):
         normals = np.repeat(face[:, None, :], 3, axis=1)
     tex_uv = (scene.albedo_uv[tris] if scene.albedo_uv is not None
               else np.zeros((len(tris), 3, 2)))
-    texture_index = scene.albedo_texture_index[tris]
+    texture_index = np.stack([scene.albedo_texture_index[tris],
+                              scene.emission_texture_index[tris]], axis=1)
     per_corner = lambda values: np.repeat(values[:, None, :], 3, axis=1)
     vertex_data = np.concatenate([
         atlas.texels, positions, normals, tex_uv, per_corner(scene.albedo[tris]),
         per_corner(scene.emission[tris]),
         per_corner((scene.receive * state.surfaces)[tris, None].astype(float)),
     ], axis=2).astype("f4")
-    # Draw in runs of (page, albedo texture).
-    order = np.lexsort((texture_index, atlas.page))
+    # Draw in runs of (page, albedo texture, emission texture).
+    order = np.lexsort((texture_index[:, 1], texture_index[:, 0], atlas.page))
     vertex_data = vertex_data[order]
-    keys = np.stack([atlas.page[order], texture_index[order]], axis=1)
+    keys = np.column_stack([atlas.page[order], texture_index[order]])
     starts = np.nonzero(np.r_[True, (keys[1:] != keys[:-1]).any(axis=1)])[0]
     ends = np.r_[starts[1:], len(keys)]
 
@@ -235,13 +238,16 @@ def rasterize(state):
         program = programs["attributes"]
         rasters[0].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         for start, end in zip(starts, ends):   # runs are sorted by page
-            page_index, texture = keys[start]
+            page_index, albedo, emission = keys[start]
             if start and keys[start - 1][0] != page_index:   # the next page: the depth anew
                 rasters[page_index].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             rasters[page_index].use()
-            set_uniform(program, "u_use_texture", int(texture >= 0))
-            if texture >= 0:
-                state.albedo_textures[texture].use(location=0)
+            for textures, index, unit, uniform in (
+                    (state.albedo_textures, albedo, 0, "u_use_texture"),
+                    (state.emission_textures, emission, 1, "u_use_emission_texture")):
+                set_uniform(program, uniform, int(index >= 0))
+                if index >= 0:
+                    textures[index].use(location=unit)
             vaos["attributes"].render(moderngl.TRIANGLES, vertices=3 * (end - start),
                                       first=3 * start)
     # moderngl binds the last used framebuffer again after making one: not a released one.

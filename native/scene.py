@@ -110,6 +110,10 @@ class Scene:
     albedo_texture_index (T,) into albedo_textures ((H, W, 3 or 4) linear float arrays, row 0
     at v = 0) sampled through albedo_uv (T, 3, 2); -1 for none. The texture is multiplied by
     the triangle's albedo.
+    emission_texture_index (T,) into emission_textures (the same, in radiance, 0 or more),
+    sampled through albedo_uv too and multiplied by the triangle's emission, which then bounds
+    its scale (emitted_power() counts the triangle's emission, untextured). The add-on gives
+    both textures per lightmap page: Cycles' evaluation of the materials at each texel.
     """
     vertices: np.ndarray
     triangles: np.ndarray
@@ -133,6 +137,8 @@ class Scene:
     object_slot: np.ndarray = None
     object_block: np.ndarray = None
     lightmap_uv: np.ndarray = None
+    emission_texture_index: np.ndarray = None
+    emission_textures: list = field(default_factory=list)
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -166,6 +172,7 @@ class Scene:
         self.sky = _vec3(self.sky, "sky")
         self.object_index = per_triangle(self.object_index, 0, np.int64)
         self.albedo_texture_index = per_triangle(self.albedo_texture_index, -1, np.int64)
+        self.emission_texture_index = per_triangle(self.emission_texture_index, -1, np.int64)
         if self.albedo_uv is not None:
             self.albedo_uv = np.ascontiguousarray(self.albedo_uv, dtype=np.float64)
         if self.lightmap_uv is not None:
@@ -246,19 +253,10 @@ class Scene:
         if self.lightmap_uv is not None:
             self._validate_lightmap_uv()
 
-        textured = self.albedo_texture_index >= 0
-        if textured.any():
-            if self.albedo_uv is None or self.albedo_uv.shape != (len(self.triangles), 3, 2):
-                raise SceneError("albedo_uv of shape (T, 3, 2) is needed with albedo textures")
-            if (self.albedo_texture_index >= len(self.albedo_textures)).any():
-                self._fail("albedo texture index out of range",
-                           int(np.argmax(self.albedo_texture_index >= len(self.albedo_textures))))
-            for index, image in enumerate(self.albedo_textures):
-                image = np.asarray(image)
-                if image.ndim != 3 or image.shape[2] not in (3, 4) or not np.isfinite(image).all():
-                    raise SceneError(f"albedo texture {index} must be a finite (H, W, 3|4) array")
-                if image[..., :3].min() < 0.0 or image[..., :3].max() >= 1.0:
-                    raise SceneError(f"albedo texture {index} has values outside [0, 1)")
+        for kind, index, textures, top in (
+                ("albedo", self.albedo_texture_index, self.albedo_textures, 1.0),
+                ("emission", self.emission_texture_index, self.emission_textures, np.inf)):
+            self._validate_textures(kind, index, textures, top)
 
         for light in self.lights:
             self._validate_light(light)
@@ -270,6 +268,22 @@ class Scene:
         if self.emitted_power().sum() <= 0.0 and sun_power <= 0.0 and self.sky.sum() <= 0.0:
             raise SceneError("the scene has no light: add a light with positive power or a "
                              "material with emission colour and strength above 0")
+
+    def _validate_textures(self, kind, index, textures, top):
+        """Texture indices in range, UVs where they are used, and values in [0, top)."""
+        if not (index >= 0).any():
+            return
+        if self.albedo_uv is None or self.albedo_uv.shape != (len(self.triangles), 3, 2):
+            raise SceneError(f"albedo_uv of shape (T, 3, 2) is needed with {kind} textures")
+        if (index >= len(textures)).any():
+            self._fail(f"{kind} texture index out of range",
+                       int(np.argmax(index >= len(textures))))
+        for number, image in enumerate(textures):
+            image = np.asarray(image)
+            if image.ndim != 3 or image.shape[2] not in (3, 4) or not np.isfinite(image).all():
+                raise SceneError(f"{kind} texture {number} must be a finite (H, W, 3|4) array")
+            if image[..., :3].min() < 0.0 or image[..., :3].max() >= top:
+                raise SceneError(f"{kind} texture {number} has values outside [0, {top})")
 
     def _validate_lightmap_uv(self):
         uv = self.lightmap_uv
@@ -361,7 +375,10 @@ class Scene:
                 self.lightmap_uv, self.lightmap_uv[backs][:, ::-1]),
             albedo_texture_index=extend(self.albedo_texture_index,
                                         self.albedo_texture_index[backs]),
-            albedo_textures=self.albedo_textures, lights=self.lights,
+            albedo_textures=self.albedo_textures,
+            emission_texture_index=extend(self.emission_texture_index,
+                                          self.emission_texture_index[backs]),
+            emission_textures=self.emission_textures, lights=self.lights,
             occlude=extend(self.occlude, np.zeros(len(backs), bool)), sky=self.sky,
             polygon=extend(self.polygon, np.full(len(backs), -1)))   # no UV map shows copies
         copy.back_of = extend(np.full(count, -1), backs)  # the original of each copy
@@ -386,9 +403,9 @@ class Scene:
             if name == "lights":
                 value = json.dumps([{"type": type(light).__name__, **_plain(asdict(light))}
                                     for light in value])
-            elif name == "albedo_textures":
+            elif name in _TEXTURE_KEYS:
                 for index, image in enumerate(value):
-                    arrays[f"{_TEXTURE_KEY}{index}"] = np.asarray(image)
+                    arrays[f"{_TEXTURE_KEYS[name]}{index}"] = np.asarray(image)
                 continue
             elif value is None:
                 continue
@@ -401,9 +418,10 @@ class Scene:
         """The scene save() wrote, validated again as any new scene is."""
         with np.load(path, allow_pickle=False) as stored:
             values = {key: stored[key] for key in stored.files}
-        textures = sorted((key for key in values if key.startswith(_TEXTURE_KEY)),
-                          key=lambda key: int(key[len(_TEXTURE_KEY):]))
-        values["albedo_textures"] = [values.pop(key) for key in textures]
+        for name, prefix in _TEXTURE_KEYS.items():
+            keys = sorted((key for key in values if key.startswith(prefix)),
+                          key=lambda key: int(key[len(prefix):]))
+            values[name] = [values.pop(key) for key in keys]
         values["lights"] = [_LIGHT_TYPES[light.pop("type")](**light)
                             for light in json.loads(str(values["lights"]))]
         values["object_names"] = [str(name) for name in values["object_names"]]
@@ -411,7 +429,8 @@ class Scene:
         return cls(**values)
 
 
-_TEXTURE_KEY = "albedo_textures_"
+_TEXTURE_KEYS = {"albedo_textures": "albedo_textures_",
+                 "emission_textures": "emission_textures_"}
 _LIGHT_TYPES = {light.__name__: light for light in (PointLight, SpotLight, SunLight)}
 
 

@@ -45,6 +45,28 @@ class Progress:
     texels: int
 
 
+def lightmap_atlas(scene, settings):
+    """The atlas a Solver of ``scene`` and ``settings`` lays its lightmaps out on, charted
+    before any GPU work (the Solver then finds it in build_atlas's cache): the add-on
+    evaluates the materials per texel of it first. Refuses, as the Solver does, a density whose
+    surface alone would overflow the memory."""
+    scene = scene.with_back_faces()
+    settings.validate()
+
+    def chart(density):
+        return build_atlas(scene, density, settings.max_atlas_size, settings.padding,
+                           align=1 << settings.shoot_level)
+
+    def fits_at(density):
+        packed = tight_packing(chart(density), 1 << settings.shoot_level)[0]
+        needed = memory.memory_needed(packed, settings,
+                                      preprocess.visibility_map_size(settings))
+        return needed <= settings.memory_limit
+
+    memory.check_surface_fits(scene, settings, fits_at)
+    return chart(settings.texel_density)
+
+
 class Solver:
     """GPU progressive radiosity for one scene. Create, step, read progress and results,
     release. Pass ``ctx`` to share an existing moderngl context; every call makes it current

@@ -69,6 +69,7 @@ class BakeState:
     programs: dict = None
     fullscreen: dict = None     # vertex arrays drawing one screen-filling triangle
     albedo_textures: list = None
+    emission_textures: list = None
     pages: list = None
     points_vbo: object = None   # one point per texel a shot changes in place (blend_points)
     points_vao: object = None

@@ -16,6 +16,8 @@ flat in float g_area_per_texel;
 
 uniform sampler2D u_albedo_texture;
 uniform int u_use_texture;
+uniform sampler2D u_emission_texture;     // multiplies the emission, as the albedo's its
+uniform int u_use_emission_texture;
 
 layout(location = 0) out vec4 out_position;  // xyz, w = texel area (added by the area pass)
 layout(location = 1) out vec4 out_normal;    // octahedral normal (texel_maps.glsl), and the
@@ -48,14 +50,14 @@ void main() {
     vec3 position = w.x * g_position[0] + w.y * g_position[1] + w.z * g_position[2];
     vec3 normal = shading_normal(w);
 
+    vec2 uv = w.x * g_tex_uv[0] + w.y * g_tex_uv[1] + w.z * g_tex_uv[2];
     vec3 albedo = g_albedo;
-    if (u_use_texture != 0) {
-        vec2 uv = w.x * g_tex_uv[0] + w.y * g_tex_uv[1] + w.z * g_tex_uv[2];
-        albedo *= texture(u_albedo_texture, uv).rgb;
-    }
+    if (u_use_texture != 0) albedo *= texture(u_albedo_texture, uv).rgb;
+    vec3 emission = g_emission;
+    if (u_use_emission_texture != 0) emission *= texture(u_emission_texture, uv).rgb;
 
     out_position = vec4(position, 0.0);
     out_normal = vec4(encode_normal(normal), 1.0, 0.0);
     out_material = vec4(albedo, encode_surface(g_receive));
-    out_unshot = vec4(g_emission, g_texel_size);
+    out_unshot = vec4(emission, g_texel_size);
 }

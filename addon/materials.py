@@ -1,0 +1,394 @@
+"""Materials as Cycles sees them: each mesh's albedo and emission per lightmap texel.
+
+evaluate_materials charts the lightmap atlas first (native.lightmap_atlas, the one the solver
+then finds cached) and has Cycles bake every mesh copy's materials into it: DIFFUSE with only
+the COLOR pass (the albedo a Cycles DIFFUSE bake multiplies its light by, whatever the node
+tree: textures through any coordinates, procedurals, vertex colours, attributes, node groups,
+mixes, the layers above a Principled BSDF's diffuse base) and EMIT (colour x strength). Each
+page's two images go to the solver as textures through the atlas UVs. Materials whose nodes
+cannot vary over the surface bake at one sample per texel, the others at MATERIAL_SAMPLES
+jittered over the texel (Cycles' pixel filter averages what lies inside a texel).
+
+Cycles bakes temporary copies of the evaluated meshes, with temporary copies of their
+materials, in a temporary scene: the user's scene, objects, materials, images, render
+settings and UV maps are never edited, and every temporary block is removed, whatever
+happens."""
+from dataclasses import dataclass, field, replace
+
+import bpy
+import numpy as np
+
+from ..native import SceneError, lightmap_atlas
+from .display import NODE_PREFIX, STATE_KEY, strip_display_nodes
+
+MATERIAL_SAMPLES = 32       # Cycles samples per texel of a material that varies
+MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (native checks < 1)
+TEXTURE_TINT = 0.9999       # the solver multiplies the textures by it; it must stay below 1
+TEMP_PREFIX = "Luxel Materials "
+BAKE_UV = "Luxel Materials UV"
+OUTSIDE_UV = -16.0          # where corners outside the atlas go: off every page
+DEFAULT_COLOUR = (0.8, 0.8, 0.8, 1.0)   # what Cycles shows for an empty material slot
+# Nodes whose output does not vary over a surface unless something that does feeds them.
+_VARYING_PREFIXES = ("ShaderNodeTex",)
+_VARYING = {"ShaderNodeTexCoord", "ShaderNodeUVMap", "ShaderNodeAttribute",
+            "ShaderNodeVertexColor", "ShaderNodeNewGeometry", "ShaderNodeObjectInfo",
+            "ShaderNodeParticleInfo", "ShaderNodeHairInfo", "ShaderNodePointInfo",
+            "ShaderNodeTangent", "ShaderNodeFresnel", "ShaderNodeLayerWeight",
+            "ShaderNodeWireframe", "ShaderNodeBevel", "ShaderNodeAmbientOcclusion",
+            "ShaderNodeLightPath", "ShaderNodeCameraData", "ShaderNodeScript",
+            "ShaderNodeNormalMap", "ShaderNodeBump", "ShaderNodeDisplacement"}
+_EMITTERS = {"ShaderNodeEmission", "ShaderNodeBackground"}
+
+
+@dataclass
+class _Bake:
+    """The temporary blocks of one evaluation, removed by release()."""
+    scene: object = None
+    objects: list = field(default_factory=list)
+    meshes: list = field(default_factory=list)
+    materials: list = field(default_factory=list)
+    images: list = field(default_factory=list)
+
+    def release(self):
+        for obj in self.objects:
+            bpy.data.objects.remove(obj)
+        for kind, blocks in ((bpy.data.meshes, self.meshes), (bpy.data.materials, self.materials),
+                             (bpy.data.images, self.images)):
+            for block in blocks:
+                kind.remove(block)
+        if self.scene is not None:
+            bpy.data.scenes.remove(self.scene)
+        self.objects, self.meshes, self.materials, self.images = [], [], [], []
+        self.scene = None
+
+
+@dataclass
+class _Copy:
+    """A temporary object of one Surface, on its page, in the group of its sample count."""
+    obj: object
+    surface: object
+    page: int
+    varies: bool
+    emits: bool
+
+
+def evaluate_materials(context, export, settings):
+    """Replace ``export.scene``'s stand-in materials (export.Export) with Cycles' evaluation per
+    texel of the atlas that ``settings`` chart; add the warnings of what Cycles cannot
+    evaluate as Luxel needs it, and the materials' mean emission (export.emission_of_material,
+    for the display). Returns the atlas."""
+    scene = export.scene
+    atlas = lightmap_atlas(scene, settings)
+    count = len(scene.triangles)
+    own = atlas.triangles < count                # the back faces' copies read their fronts
+    row_of = np.full(count, -1)
+    row_of[atlas.triangles[own]] = np.nonzero(own)[0]
+    corner_uv = atlas.uv()
+    bake = _Bake()
+    try:
+        copies = _make_copies(context, export, atlas, row_of, corner_uv, bake)
+        albedo, emission = _bake_pages(copies, atlas, bake)
+    finally:
+        bake.release()
+    _check_range(export, atlas, albedo, emission)
+    meshes = np.zeros(count, dtype=bool)
+    for surface in export.surfaces:
+        meshes[surface.first_triangle:surface.first_triangle + len(surface.loops)] = True
+    charted = meshes & (row_of >= 0)
+    page = np.where(charted, atlas.page[row_of], -1)
+    uv = np.zeros((count, 3, 2))
+    uv[charted] = corner_uv[row_of[charted]]
+    emits = charted & (scene.emission.max(axis=1) > 0.0)
+    export.scene = replace(
+        scene, albedo=np.where(charted[:, None], TEXTURE_TINT, scene.albedo),
+        albedo_uv=uv, albedo_texture_index=page, albedo_textures=albedo,
+        emission_texture_index=np.where(emits, page, -1), emission_textures=emission)
+    export.emission_of_material = _mean_emission(export, atlas, row_of, emission)
+    return atlas
+
+
+def instance_key(instance):
+    """What tells a depsgraph instance apart from the others, from one iteration to the next."""
+    instancer = instance.parent.original.name if instance.is_instance else ""
+    return (instance.object.original.name, instancer, tuple(instance.persistent_id))
+
+
+def may_emit(material):
+    """Whether ``material`` may emit light anywhere: an Emission node, or a Principled BSDF
+    whose emission strength is wired or above 0, feeds its output (through any nodes, node
+    groups included). Cycles measures how much (EMIT); this only decides, before the atlas
+    is charted, which triangles are emitters (they shoot from a copy of their back too)."""
+    output = _user_output(material)
+    return output is not None and any(
+        node.bl_idname in _EMITTERS or (
+            node.bl_idname == 'ShaderNodeBsdfPrincipled'
+            and (node.inputs["Emission Strength"].is_linked
+                 or node.inputs["Emission Strength"].default_value > 0.0))
+        for node in _upstream(output))
+
+
+# ------------------------------------------------------------------------ the copies
+def _make_copies(context, export, atlas, row_of, corner_uv, bake):
+    """A temporary object per charted Surface: its evaluated mesh (every attribute kept) at
+    its place, with the atlas UVs as BAKE_UV and, per page, copies of its materials whose
+    active node is an image of the page."""
+    bake.scene = bpy.data.scenes.new(TEMP_PREFIX + "Scene")
+    surfaces = {surface.key: surface for surface in export.surfaces
+                if atlas.object_page[surface.object_index] >= 0}
+    targets, copies = {}, []
+    depsgraph = context.evaluated_depsgraph_get()
+    for instance in depsgraph.object_instances:
+        surface = surfaces.pop(instance_key(instance), None)
+        if surface is None:
+            continue
+        page = int(atlas.object_page[surface.object_index])
+        mesh = bpy.data.meshes.new_from_object(instance.object, preserve_all_data_layers=True,
+                                               depsgraph=depsgraph)
+        bake.meshes.append(mesh)
+        _set_bake_uv(mesh, surface, row_of, corner_uv, export.scene)
+        obj = bpy.data.objects.new(TEMP_PREFIX + mesh.name, mesh)
+        bake.objects.append(obj)
+        bake.scene.collection.objects.link(obj)
+        obj.matrix_world = instance.matrix_world.copy()
+        originals = [None if name is None else bpy.data.materials[name]
+                     for name in surface.materials]
+        for slot, original in enumerate(originals):
+            key = (page, None if original is None else original.name)
+            if key not in targets:
+                targets[key] = _baking_material(original, bake)
+            if slot < len(mesh.materials):
+                mesh.materials[slot] = targets[key]
+            else:
+                mesh.materials.append(targets[key])
+        used = [originals[slot] for slot in np.unique(surface.slot)
+                if originals[slot] is not None]
+        for original in used:
+            for node, why in _unevaluable(original):
+                export.warnings.append(f"material '{original.name}': node '{node}' {why}")
+        copies.append(_Copy(obj, surface, page, any(_varies(m) for m in used),
+                            any(may_emit(m) for m in used)))
+    export.warnings[:] = list(dict.fromkeys(export.warnings))
+    return copies
+
+
+def _set_bake_uv(mesh, surface, row_of, corner_uv, scene):
+    if len(mesh.uv_layers) >= 8:
+        name = scene.object_names[surface.object_index]
+        raise SceneError(f"object '{name}' has 8 UV maps, Blender's limit, and Luxel needs one "
+                         "more to evaluate its materials: remove one", name)
+    rows = row_of[surface.first_triangle + np.arange(len(surface.loops))]
+    charted = rows >= 0
+    uv = np.full((len(mesh.loops), 2), OUTSIDE_UV)
+    uv[surface.loops[charted].ravel()] = corner_uv[rows[charted]].reshape(-1, 2)
+    # A new map is the active render one only where the mesh has none: the user's materials
+    # still read their own UVs.
+    layer = mesh.uv_layers.new(name=BAKE_UV, do_init=False)
+    layer.uv.foreach_set("vector", uv.astype(np.float32).ravel())
+    mesh.uv_layers.active = layer
+
+
+def _baking_material(original, bake):
+    """A copy of ``original`` (Blender's default surface for an empty slot) without Luxel's
+    display nodes, whose active node is the image Cycles bakes into (set per pass)."""
+    if original is None:
+        material = bpy.data.materials.new(TEMP_PREFIX + "Default")
+        tree = material.node_tree
+        tree.nodes.clear()
+        diffuse = tree.nodes.new('ShaderNodeBsdfDiffuse')
+        diffuse.inputs["Color"].default_value = DEFAULT_COLOUR
+        output = tree.nodes.new('ShaderNodeOutputMaterial')
+        tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+    else:
+        material = original.copy()
+        material.name = TEMP_PREFIX + original.name
+        if STATE_KEY in material:
+            strip_display_nodes(material)
+    bake.materials.append(material)
+    if material.node_tree is None:      # a material without nodes: its viewport colour
+        material.use_nodes = True
+        tree = material.node_tree
+        principled = next(n for n in tree.nodes if n.bl_idname == 'ShaderNodeBsdfPrincipled')
+        principled.inputs["Base Color"].default_value = (*original.diffuse_color[:3], 1.0)
+    target = material.node_tree.nodes.new('ShaderNodeTexImage')
+    target.name = TEMP_PREFIX + "Target"
+    material.node_tree.nodes.active = target
+    return material
+
+
+# ------------------------------------------------------------------------- the bakes
+def _bake_pages(copies, atlas, bake):
+    """Per page, the albedo and emission images (H, W, 3), row 0 at v = 0."""
+    width, height = atlas.width, atlas.height
+    settings = bake.scene
+    settings.render.engine = 'CYCLES'
+    cycles = settings.cycles
+    cycles.device = 'CPU'
+    cycles.use_adaptive_sampling = False
+    cycles.use_denoising = False
+    cycles.seed = 0
+    view_layer = settings.view_layers[0]
+    albedo, emission = [], []
+    for page in range(atlas.page_count):
+        on_page = [copy for copy in copies if copy.page == page]
+        results = []
+        for kind, chosen in (('DIFFUSE', on_page), ('EMIT', [c for c in on_page if c.emits])):
+            image = bpy.data.images.new(f"{TEMP_PREFIX}{kind} {page}", width, height,
+                                        alpha=True, float_buffer=True)
+            bake.images.append(image)
+            image.colorspace_settings.name = 'Linear Rec.709'
+            image.pixels.foreach_set(np.zeros(width * height * 4, dtype=np.float32))
+            for varies in (False, True):
+                group = [copy.obj for copy in chosen if copy.varies == varies]
+                if not group:
+                    continue
+                for obj in group:
+                    for material in obj.data.materials:
+                        material.node_tree.nodes.active.image = image
+                cycles.samples = MATERIAL_SAMPLES if varies else 1
+                with bpy.context.temp_override(scene=settings, view_layer=view_layer,
+                                               selected_objects=group,
+                                               selected_editable_objects=group,
+                                               active_object=group[0], object=group[0]):
+                    bpy.ops.object.bake(type=kind, pass_filter={'COLOR'}, uv_layer=BAKE_UV,
+                                        margin=0, use_clear=False, target='IMAGE_TEXTURES',
+                                        use_selected_to_active=False, use_cage=False)
+            pixels = np.empty(width * height * 4, dtype=np.float32)
+            image.pixels.foreach_get(pixels)
+            results.append(_fill_gutters(pixels.reshape(height, width, 4)))
+        albedo.append(results[0])
+        emission.append(results[1])
+    return albedo, emission
+
+
+def _fill_gutters(pixels, steps=3):
+    """The texels Cycles baked (alpha > 0; those whose centre lies on a triangle), with the
+    texels around them, up to ``steps`` away, the mean of their baked neighbours: a texel a
+    chart covers only partly, and the bilinear filter at chart borders, read real values."""
+    colour = pixels[..., :3].astype(np.float64)
+    known = pixels[..., 3] > 0.0
+    colour[~known] = 0.0
+    for _ in range(steps):
+        total, weight = np.zeros_like(colour), np.zeros(known.shape)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                total += np.roll(colour * known[..., None], (dy, dx), axis=(0, 1))
+                weight += np.roll(known, (dy, dx), axis=(0, 1))
+        grow = ~known & (weight > 0)
+        colour[grow] = total[grow] / weight[grow, None]
+        known = known | grow
+    return colour
+
+
+def _check_range(export, atlas, albedo, emission):
+    """Albedo into [0, MAX_ALBEDO] and emission to 0 or more, with a warning naming the object
+    where Cycles gave more or less."""
+    for obj, page in enumerate(atlas.object_page):
+        if page < 0:
+            continue
+        rows = np.nonzero(export.scene.object_index[atlas.triangles] == obj)[0]
+        low = np.floor(atlas.texels[rows].reshape(-1, 2).min(axis=0)).astype(int)
+        high = np.ceil(atlas.texels[rows].reshape(-1, 2).max(axis=0)).astype(int)
+        box = (slice(low[1], high[1]), slice(low[0], high[0]))
+        name = export.scene.object_names[obj]
+        if albedo[page][box].max(initial=0.0) > MAX_ALBEDO:
+            export.warnings.append(f"'{name}': its materials reflect more than {MAX_ALBEDO} of "
+                                   "the light in places (a base colour of 1 or more); lowered "
+                                   f"to {MAX_ALBEDO}, since a diffuse surface cannot reflect "
+                                   "all light")
+        if emission[page][box].min(initial=0.0) < 0.0:
+            export.warnings.append(f"'{name}': its materials emit negative light in places (a "
+                                   "negative emission strength); raised to 0, set it to 0 or "
+                                   "more")
+    for page in range(atlas.page_count):
+        np.clip(albedo[page], 0.0, MAX_ALBEDO, out=albedo[page])
+        np.maximum(emission[page], 0.0, out=emission[page])
+
+
+def _mean_emission(export, atlas, row_of, emission):
+    """{material name: its mean emitted radiance}, area-weighted over its emitting triangles'
+    centres (what the display adds to the baked light)."""
+    scene = export.scene
+    sums = {}
+    for surface in export.surfaces:
+        triangles = surface.first_triangle + np.arange(len(surface.loops))
+        rows = row_of[triangles]
+        chosen = (rows >= 0) & (scene.emission[triangles].max(axis=1) > 0.0)
+        if not chosen.any():
+            continue
+        centre = atlas.texels[rows[chosen]].mean(axis=1).astype(int)
+        page = atlas.page[rows[chosen]]
+        values = np.array([emission[p][y, x] for p, (x, y) in zip(page, centre)])
+        area = scene.triangle_area[triangles[chosen]]
+        for slot in np.unique(surface.slot[chosen]):
+            name = surface.materials[slot]
+            mine = surface.slot[chosen] == slot
+            total, weight = sums.get(name, (np.zeros(3), 0.0))
+            sums[name] = (total + (values[mine] * area[mine, None]).sum(axis=0),
+                          weight + area[mine].sum())
+    return {name: tuple(total / weight) for name, (total, weight) in sums.items()
+            if name is not None and weight > 0.0 and total.max() > 0.0}
+
+
+# ------------------------------------------------------------------------ node trees
+def _user_output(material):
+    """The material's active Cycles output, the user's own while Luxel's display shows."""
+    tree = material.node_tree
+    if tree is None:
+        return None
+    if STATE_KEY in material:
+        return tree.nodes.get(material[STATE_KEY]["output"])
+    outputs = [n for n in tree.nodes if n.bl_idname == 'ShaderNodeOutputMaterial']
+    for node in outputs:
+        if node.is_active_output and getattr(node, "target", "ALL") in ('ALL', 'CYCLES'):
+            return node
+    return outputs[0] if outputs else None
+
+
+def _upstream(node, seen=None):
+    """Every node that feeds ``node`` (itself included), inside node groups too."""
+    seen = set() if seen is None else seen
+    found = []
+    stack = [node]
+    while stack:
+        node = stack.pop()
+        if node.as_pointer() in seen or node.name.startswith(NODE_PREFIX):
+            continue
+        seen.add(node.as_pointer())
+        found.append(node)
+        if node.bl_idname == 'ShaderNodeGroup' and node.node_tree is not None:
+            outputs = [n for n in node.node_tree.nodes if n.bl_idname == 'NodeGroupOutput']
+            for output in outputs:
+                found += _upstream(output, seen)
+        for socket in node.inputs:
+            stack += [link.from_node for link in socket.links if link.is_valid]
+    return found
+
+
+def _varies(material):
+    """Whether a material's result may vary over a surface (it reads a texture, coordinates,
+    attributes, geometry or the view): such materials bake at MATERIAL_SAMPLES."""
+    output = _user_output(material)
+    return output is not None and any(
+        node.bl_idname in _VARYING or node.bl_idname.startswith(_VARYING_PREFIXES)
+        for node in _upstream(output))
+
+
+def _unevaluable(material):
+    """(node name, why) for what a bake of the material's copy on a copy of its mesh cannot
+    give as the scene renders it."""
+    output = _user_output(material)
+    for node in [] if output is None else _upstream(output):
+        if (node.bl_idname == 'ShaderNodeTexImage' and node.image is not None
+                and 0 in node.image.size):
+            yield node.name, (f"reads image '{node.image.name}', which has no pixels (missing "
+                              "file?): Cycles shows it magenta; fix the path or remove the node")
+        elif node.bl_idname == 'ShaderNodeLightPath':
+            yield node.name, ("depends on the kind of ray; Luxel evaluates the material as a "
+                              "camera ray sees it")
+        elif node.bl_idname == 'ShaderNodeObjectInfo' or (
+                node.bl_idname == 'ShaderNodeAttribute'
+                and node.attribute_type in {'OBJECT', 'INSTANCER', 'VIEW_LAYER'}):
+            yield node.name, ("reads the object, its instancer or the view layer; Luxel "
+                              "evaluates the material on a copy of the mesh, where these "
+                              "read their defaults")
+
