@@ -282,14 +282,18 @@ def _fill_gutters(pixels, steps=3):
 def _check_range(export, atlas, albedo, emission):
     """Albedo into [0, MAX_ALBEDO] and emission to 0 or more, with a warning naming the object
     where Cycles gave more or less."""
+    scene = export.scene
+    # The back faces' copies (after the scene's triangles) are their originals' objects'.
+    object_of = np.concatenate([scene.object_index,
+                                scene.object_index[scene.back_face_originals()]])
     for obj, page in enumerate(atlas.object_page):
         if page < 0:
             continue
-        rows = np.nonzero(export.scene.object_index[atlas.triangles] == obj)[0]
+        rows = np.nonzero(object_of[atlas.triangles] == obj)[0]
         low = np.floor(atlas.texels[rows].reshape(-1, 2).min(axis=0)).astype(int)
         high = np.ceil(atlas.texels[rows].reshape(-1, 2).max(axis=0)).astype(int)
         box = (slice(low[1], high[1]), slice(low[0], high[0]))
-        name = export.scene.object_names[obj]
+        name = scene.object_names[obj]
         if albedo[page][box].max(initial=0.0) > MAX_ALBEDO:
             export.warnings.append(f"'{name}': its materials reflect more than {MAX_ALBEDO} of "
                                    "the light in places (a base colour of 1 or more); lowered "
