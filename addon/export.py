@@ -46,12 +46,14 @@ class Receiver:
 class Surface:
     """One mesh copy's triangles as Blender shades them: ``key`` (instance_key) finds its
     evaluated object in the depsgraph again, ``loops`` (T, 3) are the corners of its
-    triangles (from ``first_triangle`` on) in the evaluated mesh, ``slot`` (T,) their
-    material slots, ``materials`` the slots' material names (None: empty)."""
+    triangles (from ``first_triangle`` on) in the evaluated mesh of ``corners`` corners,
+    ``slot`` (T,) their material slots, ``materials`` the slots' material names (None:
+    empty)."""
     key: tuple
     object_index: int
     first_triangle: int
     loops: np.ndarray
+    corners: int
     slot: np.ndarray
     materials: list
 
@@ -327,7 +329,7 @@ class _Exporter:
         # asks for one show a lightmap.
         first = self.collector.add(vertices, normals, triangles, object_index, albedo, emission,
                                    True, True, True, receive_back, polygon, lightmap_uv)
-        surface = Surface(key, object_index, first, loops, material_index,
+        surface = Surface(key, object_index, first, loops, len(mesh.loops), material_index,
                           [None if m is None else m.original.name for m in slots])
         self.surfaces.append(surface)
         receiver = None

@@ -4,8 +4,11 @@ evaluate_materials charts the lightmap atlas first (native.lightmap_atlas, the o
 then finds cached) and has Cycles bake every mesh copy's materials into it: DIFFUSE with only
 the COLOR pass (the albedo a Cycles DIFFUSE bake multiplies its light by, whatever the node
 tree: textures through any coordinates, procedurals, vertex colours, attributes, node groups,
-mixes, the layers above a Principled BSDF's diffuse base) and EMIT (colour x strength). Each
-page's two images go to the solver as textures through the atlas UVs. Materials whose nodes
+mixes, the layers above a Principled BSDF's diffuse base), GLOSSY with only the COLOR pass
+(what the glossy layers reflect: specular, coat, metal) and EMIT (colour x strength). Each
+page's images go to the solver as textures through the atlas UVs: the albedo is what the
+lightmap shows (a Cycles DIFFUSE bake's colour), the albedo plus the glossy colour what the
+surface reflects into the room, as if diffuse (see README, "Materials"). Materials whose nodes
 cannot vary over the surface bake at one sample per texel, the others at MATERIAL_SAMPLES
 jittered over the texel (Cycles' pixel filter averages what lies inside a texel).
 
@@ -87,10 +90,11 @@ def evaluate_materials(context, export, settings):
     bake = _Bake()
     try:
         copies = _make_copies(context, export, atlas, row_of, corner_uv, bake)
-        albedo, emission = _bake_pages(copies, atlas, bake)
+        albedo, glossy, emission = _bake_pages(copies, atlas, bake)
     finally:
         bake.release()
     _check_range(export, atlas, albedo, emission)
+    reflectance = [np.clip(a + g, 0.0, MAX_ALBEDO) for a, g in zip(albedo, glossy)]
     meshes = np.zeros(count, dtype=bool)
     for surface in export.surfaces:
         meshes[surface.first_triangle:surface.first_triangle + len(surface.loops)] = True
@@ -99,9 +103,10 @@ def evaluate_materials(context, export, settings):
     uv = np.zeros((count, 3, 2))
     uv[charted] = corner_uv[row_of[charted]]
     emits = charted & (scene.emission.max(axis=1) > 0.0)
+    tinted = np.where(charted[:, None], TEXTURE_TINT, scene.albedo)
     export.scene = replace(
-        scene, albedo=np.where(charted[:, None], TEXTURE_TINT, scene.albedo),
-        albedo_uv=uv, albedo_texture_index=page, albedo_textures=albedo,
+        scene, albedo=tinted, albedo_uv=uv, albedo_texture_index=page, albedo_textures=albedo,
+        reflectance=tinted, reflectance_texture_index=page, reflectance_textures=reflectance,
         emission_texture_index=np.where(emits, page, -1), emission_textures=emission)
     export.emission_of_material = _mean_emission(export, atlas, row_of, emission)
     return atlas
@@ -137,19 +142,36 @@ def _make_copies(context, export, atlas, row_of, corner_uv, bake):
                 if atlas.object_page[surface.object_index] >= 0}
     targets, copies = {}, []
     depsgraph = context.evaluated_depsgraph_get()
+    found = []
     for instance in depsgraph.object_instances:
         surface = surfaces.pop(instance_key(instance), None)
         if surface is None:
             continue
-        page = int(atlas.object_page[surface.object_index])
         mesh = bpy.data.meshes.new_from_object(instance.object, preserve_all_data_layers=True,
                                                depsgraph=depsgraph)
         bake.meshes.append(mesh)
+        if len(mesh.loops) != surface.corners:     # not the mesh the export saw
+            surfaces[surface.key] = surface
+            continue
         _set_bake_uv(mesh, surface, row_of, corner_uv, export.scene)
+        found.append((surface, mesh, instance.matrix_world.copy()))
+    # Instances Blender cannot hand over as meshes of their own (some that geometry nodes
+    # make): their exported triangles, without the mesh's attributes.
+    for surface in surfaces.values():
+        mesh = _triangle_mesh(export.scene, surface, row_of, corner_uv)
+        bake.meshes.append(mesh)
+        found.append((surface, mesh, None))
+        name = export.scene.object_names[surface.object_index]
+        export.warnings.append(f"'{name}': Blender does not give its evaluated mesh apart, so "
+                               "its materials were evaluated without its UV maps and "
+                               "attributes (realize its instances to bake them)")
+    for surface, mesh, matrix in found:
+        page = int(atlas.object_page[surface.object_index])
         obj = bpy.data.objects.new(TEMP_PREFIX + mesh.name, mesh)
         bake.objects.append(obj)
         bake.scene.collection.objects.link(obj)
-        obj.matrix_world = instance.matrix_world.copy()
+        if matrix is not None:
+            obj.matrix_world = matrix
         originals = [None if name is None else bpy.data.materials[name]
                      for name in surface.materials]
         for slot, original in enumerate(originals):
@@ -169,6 +191,24 @@ def _make_copies(context, export, atlas, row_of, corner_uv, bake):
                             any(may_emit(m) for m in used)))
     export.warnings[:] = list(dict.fromkeys(export.warnings))
     return copies
+
+
+def _triangle_mesh(scene, surface, row_of, corner_uv):
+    """A mesh of the surface's exported triangles (world space), its material slots per
+    triangle and the atlas UVs."""
+    triangles = surface.first_triangle + np.arange(len(surface.loops))
+    corners = scene.vertices[scene.triangles[triangles]].reshape(-1, 3)
+    mesh = bpy.data.meshes.new(TEMP_PREFIX + scene.object_names[surface.object_index])
+    mesh.from_pydata(corners.tolist(), [], np.arange(len(corners)).reshape(-1, 3).tolist())
+    mesh.polygons.foreach_set("material_index", surface.slot.astype(np.int32))
+    for _ in surface.materials:
+        mesh.materials.append(None)
+    rows = row_of[triangles]
+    uv = np.full((len(triangles), 3, 2), OUTSIDE_UV)
+    uv[rows >= 0] = corner_uv[rows[rows >= 0]]
+    layer = mesh.uv_layers.new(name=BAKE_UV, do_init=False)
+    layer.uv.foreach_set("vector", uv.astype(np.float32).ravel())
+    return mesh
 
 
 def _set_bake_uv(mesh, surface, row_of, corner_uv, scene):
@@ -217,7 +257,7 @@ def _baking_material(original, bake):
 
 # ------------------------------------------------------------------------- the bakes
 def _bake_pages(copies, atlas, bake):
-    """Per page, the albedo and emission images (H, W, 3), row 0 at v = 0."""
+    """Per page, the albedo, glossy colour and emission images (H, W, 3), row 0 at v = 0."""
     width, height = atlas.width, atlas.height
     settings = bake.scene
     settings.render.engine = 'CYCLES'
@@ -227,11 +267,12 @@ def _bake_pages(copies, atlas, bake):
     cycles.use_denoising = False
     cycles.seed = 0
     view_layer = settings.view_layers[0]
-    albedo, emission = [], []
+    albedo, glossy, emission = [], [], []
     for page in range(atlas.page_count):
         on_page = [copy for copy in copies if copy.page == page]
         results = []
-        for kind, chosen in (('DIFFUSE', on_page), ('EMIT', [c for c in on_page if c.emits])):
+        for kind, chosen in (('DIFFUSE', on_page), ('GLOSSY', on_page),
+                             ('EMIT', [c for c in on_page if c.emits])):
             image = bpy.data.images.new(f"{TEMP_PREFIX}{kind} {page}", width, height,
                                         alpha=True, float_buffer=True)
             bake.images.append(image)
@@ -255,9 +296,9 @@ def _bake_pages(copies, atlas, bake):
             pixels = np.empty(width * height * 4, dtype=np.float32)
             image.pixels.foreach_get(pixels)
             results.append(_fill_gutters(pixels.reshape(height, width, 4)))
-        albedo.append(results[0])
-        emission.append(results[1])
-    return albedo, emission
+        for images, result in zip((albedo, glossy, emission), results):
+            images.append(result)
+    return albedo, glossy, emission
 
 
 def _fill_gutters(pixels, steps=3):

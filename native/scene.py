@@ -82,7 +82,9 @@ class Scene:
 
     vertices (V, 3), triangles (T, 3) vertex indices, counter-clockwise seen from the front.
     normals (V, 3), optional shading normals; face normals otherwise.
-    albedo (T, 3) diffuse reflectance in [0, 1); emission (T, 3) emitted radiance
+    albedo (T, 3) diffuse reflectance in [0, 1): what the lightmap shows, rho E / pi;
+    reflectance (T, 3) in [0, 1), the albedo by default: what the surface reflects into the
+    room, as if diffuse (more than the albedo where glossy layers reflect too); emission (T, 3) emitted radiance
     (Blender's emission colour x strength); emission_two_sided (T,) emits from both faces
     as Blender's emission shader does (default) or only from the front.
     receive (T,) gets a lightmap; non-receiving triangles still occlude and emit.
@@ -113,7 +115,9 @@ class Scene:
     emission_texture_index (T,) into emission_textures (the same, in radiance, 0 or more),
     sampled through albedo_uv too and multiplied by the triangle's emission, which then bounds
     its scale (emitted_power() counts the triangle's emission, untextured). The add-on gives
-    both textures per lightmap page: Cycles' evaluation of the materials at each texel.
+    reflectance_texture_index (T,) into reflectance_textures likewise, times the reflectance.
+    The add-on gives the three per lightmap page: Cycles' evaluation of the materials at each
+    texel.
     """
     vertices: np.ndarray
     triangles: np.ndarray
@@ -139,6 +143,9 @@ class Scene:
     lightmap_uv: np.ndarray = None
     emission_texture_index: np.ndarray = None
     emission_textures: list = field(default_factory=list)
+    reflectance: np.ndarray = None
+    reflectance_texture_index: np.ndarray = None
+    reflectance_textures: list = field(default_factory=list)
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -162,6 +169,8 @@ class Scene:
             return array
 
         self.albedo = per_triangle(self.albedo, 0.8, np.float64, 3)
+        self.reflectance = (self.albedo.copy() if self.reflectance is None
+                            else per_triangle(self.reflectance, 0.0, np.float64, 3))
         self.emission = per_triangle(self.emission, 0.0, np.float64, 3)
         self.emission_two_sided = per_triangle(self.emission_two_sided, True, bool)
         self.receive = per_triangle(self.receive, True, bool)
@@ -173,6 +182,8 @@ class Scene:
         self.object_index = per_triangle(self.object_index, 0, np.int64)
         self.albedo_texture_index = per_triangle(self.albedo_texture_index, -1, np.int64)
         self.emission_texture_index = per_triangle(self.emission_texture_index, -1, np.int64)
+        self.reflectance_texture_index = per_triangle(self.reflectance_texture_index, -1,
+                                                      np.int64)
         if self.albedo_uv is not None:
             self.albedo_uv = np.ascontiguousarray(self.albedo_uv, dtype=np.float64)
         if self.lightmap_uv is not None:
@@ -224,15 +235,17 @@ class Scene:
                        int(np.argmax(degenerate)))
         self.triangle_area = area
 
-        for name, values in (("albedo", self.albedo), ("emission", self.emission)):
+        for name, values in (("albedo", self.albedo), ("reflectance", self.reflectance),
+                             ("emission", self.emission)):
             bad = ~np.isfinite(values).all(axis=1)
             if bad.any():
                 self._fail(f"{name} is not finite", int(np.argmax(bad)))
-        bad = ((self.albedo < 0.0) | (self.albedo >= 1.0)).any(axis=1)
-        if bad.any():
-            triangle = int(np.argmax(bad))
-            self._fail(f"albedo {self.albedo[triangle].tolist()} is outside [0, 1); a diffuse "
-                       "surface cannot reflect all light: lower the base colour below 1", triangle)
+        for name, values in (("albedo", self.albedo), ("reflectance", self.reflectance)):
+            bad = ((values < 0.0) | (values >= 1.0)).any(axis=1)
+            if bad.any():
+                triangle = int(np.argmax(bad))
+                self._fail(f"{name} {values[triangle].tolist()} is outside [0, 1); a surface "
+                           "cannot reflect all light: lower the base colour below 1", triangle)
         bad = (self.emission < 0.0).any(axis=1)
         if bad.any():
             self._fail("emission is negative; use a colour and strength of 0 or more",
@@ -255,7 +268,9 @@ class Scene:
 
         for kind, index, textures, top in (
                 ("albedo", self.albedo_texture_index, self.albedo_textures, 1.0),
-                ("emission", self.emission_texture_index, self.emission_textures, np.inf)):
+                ("emission", self.emission_texture_index, self.emission_textures, np.inf),
+                ("reflectance", self.reflectance_texture_index, self.reflectance_textures,
+                 1.0)):
             self._validate_textures(kind, index, textures, top)
 
         for light in self.lights:
@@ -378,7 +393,11 @@ class Scene:
             albedo_textures=self.albedo_textures,
             emission_texture_index=extend(self.emission_texture_index,
                                           self.emission_texture_index[backs]),
-            emission_textures=self.emission_textures, lights=self.lights,
+            emission_textures=self.emission_textures,
+            reflectance=extend(self.reflectance, self.reflectance[backs]),
+            reflectance_texture_index=extend(self.reflectance_texture_index,
+                                             self.reflectance_texture_index[backs]),
+            reflectance_textures=self.reflectance_textures, lights=self.lights,
             occlude=extend(self.occlude, np.zeros(len(backs), bool)), sky=self.sky,
             polygon=extend(self.polygon, np.full(len(backs), -1)))   # no UV map shows copies
         copy.back_of = extend(np.full(count, -1), backs)  # the original of each copy
@@ -430,7 +449,8 @@ class Scene:
 
 
 _TEXTURE_KEYS = {"albedo_textures": "albedo_textures_",
-                 "emission_textures": "emission_textures_"}
+                 "emission_textures": "emission_textures_",
+                 "reflectance_textures": "reflectance_textures_"}
 _LIGHT_TYPES = {light.__name__: light for light in (PointLight, SpotLight, SunLight)}
 
 
