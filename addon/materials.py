@@ -120,7 +120,7 @@ def instance_key(instance):
 
 def may_emit(material):
     """Whether ``material`` may emit light anywhere: an Emission node, or a Principled BSDF
-    whose emission strength is wired or above 0, feeds its output (through any nodes, node
+    whose emission strength is wired or not 0 (a negative one is warned of), feeds its output (through any nodes, node
     groups included). Cycles measures how much (EMIT); this only decides, before the atlas
     is charted, which triangles are emitters (they shoot from a copy of their back too)."""
     output = _user_output(material)
@@ -128,7 +128,7 @@ def may_emit(material):
         node.bl_idname in _EMITTERS or (
             node.bl_idname == 'ShaderNodeBsdfPrincipled'
             and (node.inputs["Emission Strength"].is_linked
-                 or node.inputs["Emission Strength"].default_value > 0.0))
+                 or node.inputs["Emission Strength"].default_value != 0.0))
         for node in _upstream(output))
 
 
@@ -322,7 +322,7 @@ def _fill_gutters(pixels, steps=3):
 
 def _check_range(export, atlas, albedo, emission):
     """Albedo into [0, MAX_ALBEDO] and emission to 0 or more, with a warning naming the object
-    where Cycles gave more or less."""
+    and its materials where Cycles gave more or less."""
     scene = export.scene
     # The back faces' copies (after the scene's triangles) are their originals' objects'.
     object_of = np.concatenate([scene.object_index,
@@ -334,16 +334,20 @@ def _check_range(export, atlas, albedo, emission):
         low = np.floor(atlas.texels[rows].reshape(-1, 2).min(axis=0)).astype(int)
         high = np.ceil(atlas.texels[rows].reshape(-1, 2).max(axis=0)).astype(int)
         box = (slice(low[1], high[1]), slice(low[0], high[0]))
-        name = scene.object_names[obj]
+        materials = sorted({m for surface in export.surfaces if surface.object_index == obj
+                            for m in surface.materials if m is not None})
+        name = f"'{scene.object_names[obj]}'" + (
+            f" (material {', '.join(repr(m) for m in materials)})" if materials else "")
         if albedo[page][box].max(initial=0.0) > MAX_ALBEDO:
-            export.warnings.append(f"'{name}': its materials reflect more than {MAX_ALBEDO} of "
-                                   "the light in places (a base colour of 1 or more); lowered "
-                                   f"to {MAX_ALBEDO}, since a diffuse surface cannot reflect "
-                                   "all light")
+            export.warnings.append(f"{name} reflects more than {MAX_ALBEDO} of the light in "
+                                   "places (a colour of 1 or more): lowered to "
+                                   f"{MAX_ALBEDO}, since a surface cannot reflect all light")
+        if albedo[page][box].min(initial=0.0) < 0.0:
+            export.warnings.append(f"{name} reflects negative light in places (a negative "
+                                   "colour): raised to 0")
         if emission[page][box].min(initial=0.0) < 0.0:
-            export.warnings.append(f"'{name}': its materials emit negative light in places (a "
-                                   "negative emission strength); raised to 0, set it to 0 or "
-                                   "more")
+            export.warnings.append(f"{name} emits negative light in places (a negative "
+                                   "emission strength): raised to 0; set it to 0 or more")
     for page in range(atlas.page_count):
         np.clip(albedo[page], 0.0, MAX_ALBEDO, out=albedo[page])
         np.maximum(emission[page], 0.0, out=emission[page])
