@@ -22,6 +22,7 @@ import bpy
 import numpy as np
 
 from ..native import SceneError, lightmap_atlas
+from ..native.postprocess import fill_gutter
 from .display import NODE_PREFIX, STATE_KEY, strip_display_nodes
 
 MATERIAL_SAMPLES = 32       # Cycles samples per texel of a material that varies
@@ -29,7 +30,9 @@ MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (nativ
 TEXTURE_TINT = 0.9999       # the solver multiplies the textures by it; it must stay below 1
 TEMP_PREFIX = "Luxel Materials "
 BAKE_UV = "Luxel Materials UV"
-OUTSIDE_UV = -16.0          # where corners outside the atlas go: off every page
+OUTSIDE_UV = -16.0          # where corners outside the atlas go: off every image
+GUTTER_TEXELS = 3           # filled around each chart: partly covered texels and the
+#                             bilinear filter at chart borders read real values
 DEFAULT_COLOUR = (0.8, 0.8, 0.8, 1.0)   # what Cycles shows for an empty material slot
 # Nodes whose output does not vary over a surface unless something that does feeds them.
 _VARYING_PREFIXES = ("ShaderNodeTex",)
@@ -67,10 +70,13 @@ class _Bake:
 
 @dataclass
 class _Copy:
-    """A temporary object of one Surface, on its page, in the group of its sample count."""
+    """A temporary object of one Surface, baked into images of its box on its page (``low``,
+    ``size``: whole texels), in the group of its sample count."""
     obj: object
     surface: object
     page: int
+    low: np.ndarray
+    size: np.ndarray
     varies: bool
     emits: bool
 
@@ -89,7 +95,7 @@ def evaluate_materials(context, export, settings):
     corner_uv = atlas.uv()
     bake = _Bake()
     try:
-        copies = _make_copies(context, export, atlas, row_of, corner_uv, bake)
+        copies = _make_copies(context, export, atlas, row_of, bake)
         albedo, glossy, emission = _bake_pages(copies, atlas, bake)
     finally:
         bake.release()
@@ -133,14 +139,15 @@ def may_emit(material):
 
 
 # ------------------------------------------------------------------------ the copies
-def _make_copies(context, export, atlas, row_of, corner_uv, bake):
+def _make_copies(context, export, atlas, row_of, bake):
     """A temporary object per charted Surface: its evaluated mesh (every attribute kept) at
-    its place, with the atlas UVs as BAKE_UV and, per page, copies of its materials whose
-    active node is an image of the page."""
+    its place, with its place in the atlas as BAKE_UV (in its own box of texels: Cycles bakes
+    each object over its whole image) and copies of its materials whose active node is an
+    image of its box."""
     bake.scene = bpy.data.scenes.new(TEMP_PREFIX + "Scene")
     surfaces = {surface.key: surface for surface in export.surfaces
                 if atlas.object_page[surface.object_index] >= 0}
-    targets, copies = {}, []
+    copies = []
     depsgraph = context.evaluated_depsgraph_get()
     found = []
     for instance in depsgraph.object_instances:
@@ -153,12 +160,11 @@ def _make_copies(context, export, atlas, row_of, corner_uv, bake):
         if len(mesh.loops) != surface.corners:     # not the mesh the export saw
             surfaces[surface.key] = surface
             continue
-        _set_bake_uv(mesh, surface, row_of, corner_uv, export.scene)
         found.append((surface, mesh, instance.matrix_world.copy()))
     # Instances Blender cannot hand over as meshes of their own (some that geometry nodes
     # make): their exported triangles, without the mesh's attributes.
     for surface in surfaces.values():
-        mesh = _triangle_mesh(export.scene, surface, row_of, corner_uv)
+        mesh = _triangle_mesh(export.scene, surface)
         bake.meshes.append(mesh)
         found.append((surface, mesh, None))
         name = export.scene.object_names[surface.object_index]
@@ -167,6 +173,13 @@ def _make_copies(context, export, atlas, row_of, corner_uv, bake):
                                "attributes (realize its instances to bake them)")
     for surface, mesh, matrix in found:
         page = int(atlas.object_page[surface.object_index])
+        rows = row_of[surface.first_triangle + np.arange(len(surface.loops))]
+        texels = atlas.texels[rows[rows >= 0]].reshape(-1, 2)
+        low = np.floor(texels.min(axis=0)).astype(int)
+        size = np.maximum(np.ceil(texels.max(axis=0)).astype(int) - low, 1)
+        corners = np.full((len(rows), 3, 2), OUTSIDE_UV)
+        corners[rows >= 0] = (atlas.texels[rows[rows >= 0]] - low) / size
+        _set_bake_uv(mesh, surface, corners, export.scene, in_loops=matrix is not None)
         obj = bpy.data.objects.new(TEMP_PREFIX + mesh.name, mesh)
         bake.objects.append(obj)
         bake.scene.collection.objects.link(obj)
@@ -174,28 +187,28 @@ def _make_copies(context, export, atlas, row_of, corner_uv, bake):
             obj.matrix_world = matrix
         originals = [None if name is None else bpy.data.materials[name]
                      for name in surface.materials]
+        targets = {}
         for slot, original in enumerate(originals):
-            key = (page, None if original is None else original.name)
-            if key not in targets:
-                targets[key] = _baking_material(original, bake)
+            if original not in targets:
+                targets[original] = _baking_material(original, bake)
             if slot < len(mesh.materials):
-                mesh.materials[slot] = targets[key]
+                mesh.materials[slot] = targets[original]
             else:
-                mesh.materials.append(targets[key])
+                mesh.materials.append(targets[original])
         used = [originals[slot] for slot in np.unique(surface.slot)
                 if originals[slot] is not None]
         for original in used:
             for node, why in _unevaluable(original):
                 export.warnings.append(f"material '{original.name}': node '{node}' {why}")
-        copies.append(_Copy(obj, surface, page, any(_varies(m) for m in used),
+        copies.append(_Copy(obj, surface, page, low, size, any(_varies(m) for m in used),
                             any(may_emit(m) for m in used)))
     export.warnings[:] = list(dict.fromkeys(export.warnings))
     return copies
 
 
-def _triangle_mesh(scene, surface, row_of, corner_uv):
-    """A mesh of the surface's exported triangles (world space), its material slots per
-    triangle and the atlas UVs."""
+def _triangle_mesh(scene, surface):
+    """A mesh of the surface's exported triangles (world space), one corner each, with their
+    material slots."""
     triangles = surface.first_triangle + np.arange(len(surface.loops))
     corners = scene.vertices[scene.triangles[triangles]].reshape(-1, 3)
     mesh = bpy.data.meshes.new(TEMP_PREFIX + scene.object_names[surface.object_index])
@@ -203,23 +216,21 @@ def _triangle_mesh(scene, surface, row_of, corner_uv):
     mesh.polygons.foreach_set("material_index", surface.slot.astype(np.int32))
     for _ in surface.materials:
         mesh.materials.append(None)
-    rows = row_of[triangles]
-    uv = np.full((len(triangles), 3, 2), OUTSIDE_UV)
-    uv[rows >= 0] = corner_uv[rows[rows >= 0]]
-    layer = mesh.uv_layers.new(name=BAKE_UV, do_init=False)
-    layer.uv.foreach_set("vector", uv.astype(np.float32).ravel())
     return mesh
 
 
-def _set_bake_uv(mesh, surface, row_of, corner_uv, scene):
+def _set_bake_uv(mesh, surface, corners, scene, *, in_loops):
+    """BAKE_UV: ``corners`` (T, 3, 2) at the surface's corners in the evaluated mesh
+    (``in_loops``), or at the corners of _triangle_mesh's triangles, in order."""
     if len(mesh.uv_layers) >= 8:
         name = scene.object_names[surface.object_index]
         raise SceneError(f"object '{name}' has 8 UV maps, Blender's limit, and Luxel needs one "
                          "more to evaluate its materials: remove one", name)
-    rows = row_of[surface.first_triangle + np.arange(len(surface.loops))]
-    charted = rows >= 0
     uv = np.full((len(mesh.loops), 2), OUTSIDE_UV)
-    uv[surface.loops[charted].ravel()] = corner_uv[rows[charted]].reshape(-1, 2)
+    if in_loops:
+        uv[surface.loops.ravel()] = corners.reshape(-1, 2)
+    else:
+        uv[:] = corners.reshape(-1, 2)
     # A new map is the active render one only where the mesh has none: the user's materials
     # still read their own UVs.
     layer = mesh.uv_layers.new(name=BAKE_UV, do_init=False)
@@ -257,8 +268,9 @@ def _baking_material(original, bake):
 
 # ------------------------------------------------------------------------- the bakes
 def _bake_pages(copies, atlas, bake):
-    """Per page, the albedo, glossy colour and emission images (H, W, 3), row 0 at v = 0."""
-    width, height = atlas.width, atlas.height
+    """Per page, the albedo, glossy colour and emission (H, W, 3), row 0 at v = 0: each
+    object's box pasted where Cycles baked a texel (its centre on a triangle), the gutters
+    around the charts filled."""
     settings = bake.scene
     settings.render.engine = 'CYCLES'
     cycles = settings.cycles
@@ -267,57 +279,47 @@ def _bake_pages(copies, atlas, bake):
     cycles.use_denoising = False
     cycles.seed = 0
     view_layer = settings.view_layers[0]
-    albedo, glossy, emission = [], [], []
-    for page in range(atlas.page_count):
-        on_page = [copy for copy in copies if copy.page == page]
-        results = []
-        for kind, chosen in (('DIFFUSE', on_page), ('GLOSSY', on_page),
-                             ('EMIT', [c for c in on_page if c.emits])):
-            image = bpy.data.images.new(f"{TEMP_PREFIX}{kind} {page}", width, height,
-                                        alpha=True, float_buffer=True)
+    passes = []
+    for kind, chosen in (('DIFFUSE', copies), ('GLOSSY', copies),
+                         ('EMIT', [copy for copy in copies if copy.emits])):
+        pages = np.zeros((atlas.page_count, atlas.height, atlas.width, 4), dtype=np.float32)
+        images = {}
+        for copy in chosen:
+            width, height = (int(n) for n in copy.size)
+            image = images[id(copy)] = bpy.data.images.new(
+                f"{TEMP_PREFIX}{kind}", width, height, alpha=True, float_buffer=True)
             bake.images.append(image)
             image.colorspace_settings.name = 'Linear Rec.709'
             image.pixels.foreach_set(np.zeros(width * height * 4, dtype=np.float32))
-            for varies in (False, True):
-                group = [copy.obj for copy in chosen if copy.varies == varies]
-                if not group:
-                    continue
-                for obj in group:
-                    for material in obj.data.materials:
-                        material.node_tree.nodes.active.image = image
-                cycles.samples = MATERIAL_SAMPLES if varies else 1
-                with bpy.context.temp_override(scene=settings, view_layer=view_layer,
-                                               selected_objects=group,
-                                               selected_editable_objects=group,
-                                               active_object=group[0], object=group[0]):
-                    bpy.ops.object.bake(type=kind, pass_filter={'COLOR'}, uv_layer=BAKE_UV,
-                                        margin=0, use_clear=False, target='IMAGE_TEXTURES',
-                                        use_selected_to_active=False, use_cage=False)
+            for material in copy.obj.data.materials:
+                material.node_tree.nodes.active.image = image
+        for varies in (False, True):
+            group = [copy.obj for copy in chosen if copy.varies == varies]
+            if not group:
+                continue
+            cycles.samples = MATERIAL_SAMPLES if varies else 1
+            with bpy.context.temp_override(scene=settings, view_layer=view_layer,
+                                           selected_objects=group,
+                                           selected_editable_objects=group,
+                                           active_object=group[0], object=group[0]):
+                bpy.ops.object.bake(type=kind, pass_filter={'COLOR'}, uv_layer=BAKE_UV,
+                                    margin=0, use_clear=False, target='IMAGE_TEXTURES',
+                                    use_selected_to_active=False, use_cage=False)
+        for copy in chosen:
+            image = images[id(copy)]
+            width, height = image.size
             pixels = np.empty(width * height * 4, dtype=np.float32)
             image.pixels.foreach_get(pixels)
-            results.append(_fill_gutters(pixels.reshape(height, width, 4)))
-        for images, result in zip((albedo, glossy, emission), results):
-            images.append(result)
-    return albedo, glossy, emission
-
-
-def _fill_gutters(pixels, steps=3):
-    """The texels Cycles baked (alpha > 0; those whose centre lies on a triangle), with the
-    texels around them, up to ``steps`` away, the mean of their baked neighbours: a texel a
-    chart covers only partly, and the bilinear filter at chart borders, read real values."""
-    colour = pixels[..., :3].astype(np.float64)
-    known = pixels[..., 3] > 0.0
-    colour[~known] = 0.0
-    for _ in range(steps):
-        total, weight = np.zeros_like(colour), np.zeros(known.shape)
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                total += np.roll(colour * known[..., None], (dy, dx), axis=(0, 1))
-                weight += np.roll(known, (dy, dx), axis=(0, 1))
-        grow = ~known & (weight > 0)
-        colour[grow] = total[grow] / weight[grow, None]
-        known = known | grow
-    return colour
+            pixels = pixels.reshape(height, width, 4)
+            baked = pixels[..., 3] > 0.0
+            (x, y), page = copy.low, copy.page
+            box = pages[page, y:y + height, x:x + width]
+            box[baked] = np.concatenate([pixels[baked][:, :3],
+                                         np.ones((int(baked.sum()), 1), np.float32)], axis=1)
+        for page in pages:
+            fill_gutter(page, GUTTER_TEXELS)
+        passes.append([page[..., :3] for page in pages])
+    return passes
 
 
 def _check_range(export, atlas, albedo, emission):

@@ -186,7 +186,7 @@ def test_evaluation_leaves_the_file_as_it_was_also_when_it_fails(monkeypatch):
 
     def fail(*args, **kwargs):
         raise RuntimeError("Cycles failed")
-    monkeypatch.setattr(addon.materials, "_fill_gutters", fail)
+    monkeypatch.setattr(addon.materials, "fill_gutter", fail)
     with pytest.raises(addon.bake.BakeError, match="evaluating the materials"):
         addon.bake.BakeJob(bpy.context)
     assert blocks() == before
