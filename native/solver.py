@@ -7,10 +7,11 @@ evaluation paper), in lightmap space, with the hemicube for visibility.
     pages = solver.result()                              # current lightmaps, any time
     solver.release()                                     # every GL object, in one place
 
-Per texel the maps hold world position and area, normal, albedo, the receiving surface's
-number, the subdivision level, the accumulated irradiance E and the unshot radiance. A
-lightmap texel is rho * E / pi, the reflected diffuse radiance a Cycles DIFFUSE bake (direct
-+ indirect + colour) writes. Each stage of a shot is a module of its own (preprocess,
+Per texel the maps hold world position and area, normal, reflectance (what the texel
+reflects into the room), the receiving surface's number, the subdivision level, the
+accumulated irradiance E and the unshot radiance. A lightmap texel is rho * E / pi, rho the
+diffuse albedo (kept on the CPU), the reflected diffuse radiance a Cycles DIFFUSE bake
+(direct + indirect + colour) writes. Each stage of a shot is a module of its own (preprocess,
 selection, shooters, visibility, subdivision, receivers, thin_gaps, postprocess); they share
 the records of state.py. This module keeps the public API and the per-shot loop.
 """
