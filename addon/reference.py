@@ -277,6 +277,12 @@ def configure_cycles(scene, samples, bounces, seed):
     cycles.sample_clamp_indirect = 0.0
     cycles.max_bounces = bounces
     cycles.diffuse_bounces = bounces
+    cycles.glossy_bounces = bounces
+    # Filter Glossy (1 by default) blurs glossy lobes met after a diffuse bounce, and the
+    # blurred lobes reflect less: a room of Blender's default Principled BSDF came out
+    # 4.5-8 % darker than with it off (README, "Light that glossy layers reflect").
+    cycles.blur_glossy = 0.0
+    cycles.caustics_reflective = True
     cycles.seed = seed
     cycles.use_animated_seed = False
     cycles.time_limit = 0.0

@@ -290,7 +290,7 @@ def test_albedo_of_one_or_more_is_clamped_and_the_energy_stays_bounded():
         assert ("'room' (material 'walls') reflects more than 0.999 of the light in places "
                 "(a colour of 1 or more): lowered to 0.999, since a surface cannot reflect "
                 "all light") in job.warnings
-        assert max(page.max() for page in job.export.scene.albedo_textures) == 0.999
+        assert max(page.max() for page in job.export.scene.albedo_textures) == pytest.approx(0.999)
         while not job.step(1.0):
             pass
         ledger = job.solver.ledger()
