@@ -73,7 +73,6 @@ class _Copy:
     """A temporary object of one Surface, baked into images of its box on its page (``low``,
     ``size``: whole texels), in the group of its sample count."""
     obj: object
-    surface: object
     page: int
     low: np.ndarray
     size: np.ndarray
@@ -126,9 +125,10 @@ def instance_key(instance):
 
 def may_emit(material):
     """Whether ``material`` may emit light anywhere: an Emission node, or a Principled BSDF
-    whose emission strength is wired or not 0 (a negative one is warned of), feeds its output (through any nodes, node
-    groups included). Cycles measures how much (EMIT); this only decides, before the atlas
-    is charted, which triangles are emitters (they shoot from a copy of their back too)."""
+    whose emission strength is wired or not 0 (Cycles' negative values are warned of),
+    feeds its output (through any nodes, node groups included). Cycles measures how much
+    (EMIT); this only decides, before the atlas is charted, which triangles are emitters
+    (they shoot from a copy of their back too)."""
     output = _user_output(material)
     return output is not None and any(
         node.bl_idname in _EMITTERS or (
@@ -200,7 +200,7 @@ def _make_copies(context, export, atlas, row_of, bake):
         for original in used:
             for node, why in _unevaluable(original):
                 export.warnings.append(f"material '{original.name}': node '{node}' {why}")
-        copies.append(_Copy(obj, surface, page, low, size, any(_varies(m) for m in used),
+        copies.append(_Copy(obj, page, low, size, any(_varies(m) for m in used),
                             any(may_emit(m) for m in used)))
     export.warnings[:] = list(dict.fromkeys(export.warnings))
     return copies
