@@ -60,16 +60,22 @@ def main():
     seconds = time.perf_counter() - started
     stats = scene.luxel.stats
     started = time.perf_counter()
-    means = reference.object_means(reference.cycles_reference(bpy.context, args.samples, 32,
-                                                              copies=True))
+    cycles = reference.cycles_reference(bpy.context, args.samples, 32, copies=True)
+    means = reference.object_means(cycles)
     cycles_seconds = time.perf_counter() - started
     luminance = np.array([0.2126, 0.7152, 0.0722])
     rows = []
     for name, mean in sorted(means.items()):
         ratio = float(mean.luxel @ luminance / max(mean.cycles @ luminance, 1e-30))
+        # Relative RMS of the texels' luminance over Cycles' mean, on the texels Cycles baked.
+        covered = cycles[name][..., 3] > 0
+        luxel = reference._pixels(reference.luxel_page(scene, name))[covered][:, :3]
+        difference = (luxel - cycles[name][covered][:, :3]) @ luminance
+        rms = float(np.sqrt(np.mean(difference ** 2)) / max(mean.cycles @ luminance, 1e-30))
         rows.append({"object": name, "texels": mean.texels, "luxel": mean.luxel.tolist(),
-                     "cycles": mean.cycles.tolist(), "ratio": ratio})
-        print(f"{name:>14} {mean.texels:7d} texels  Luxel/Cycles {ratio:6.3f}")
+                     "cycles": mean.cycles.tolist(), "ratio": ratio, "relative_rms": rms})
+        print(f"{name:>14} {mean.texels:7d} texels  Luxel/Cycles {ratio:6.3f}  "
+              f"relative RMS {rms:6.3f}")
     result = {"solver_objects": len(solver_scene.object_names), "receivers": len(export.receivers),
               "triangles": len(solver_scene.triangles), "area_shown": float(shown / rendered),
               "bake_seconds": seconds, "texels": stats.texels, "shots": stats.shots,
