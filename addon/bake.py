@@ -13,6 +13,7 @@ from typing import Callable
 from ..native import LuxelError, SceneError, SetUpProgress, Solver
 from . import display
 from .export import EXPORT_STAGE, export_steps
+from .materials import evaluate_materials
 from .writeback import lightmap_directory, write_back
 
 GPU_FIX = "update the GPU driver or lower the texel density (Render properties > Luxel Lightmaps)"
@@ -21,7 +22,10 @@ BUG_FIX = "report it as a bug"
 # longer differs from scene to scene, and the bar only has to move forward.
 SET_UP_SHARE = 0.2
 # What the status bar adds to a stage that Esc cannot cut short.
-UNINTERRUPTIBLE = {"charting": "xatlas cannot be interrupted: Esc is taken once it is done"}
+UNINTERRUPTIBLE = {
+    "evaluating the materials with Cycles":
+        "xatlas and Cycles' bakes cannot be interrupted: Esc is taken once they are done",
+    "charting": "xatlas cannot be interrupted: Esc is taken once it is done"}
 
 
 class BakeError(LuxelError):
@@ -49,10 +53,12 @@ class BakeJob:
         self.export = None
         self.solver = None
         self._warned = 0
-        self._exporting = export_steps(context)
+        self.depsgraph = context.evaluated_depsgraph_get()
+        self._exporting = export_steps(context, self.depsgraph)
         # The set-up, in order: a stage more is a line more.
         self.stages = (
             Stage(EXPORT_STAGE, BUG_FIX, self._export),
+            Stage("evaluating the materials with Cycles", BUG_FIX, self._evaluate_materials),
             Stage("starting the GPU solver", GPU_FIX, self._start_solver),
         )
         self.set_up_progress = SetUpProgress(stage=self.stages[0].name, fraction=0.0)
@@ -183,6 +189,9 @@ class BakeJob:
                              "visible mesh (Object properties > Luxel)")
         if self.scene.luxel.output == 'FILES':
             lightmap_directory(self.scene)      # refused now rather than after the bake
+
+    def _evaluate_materials(self):
+        evaluate_materials(self.depsgraph, self.export, self.settings)
 
     def _start_solver(self):
         """The solver's own set-up (charting, then preprocessing), a piece at a time."""

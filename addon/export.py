@@ -1,6 +1,7 @@
 """Blender scene -> native.Scene, through the evaluated depsgraph: world-space triangles with
-modifiers and instances applied, diffuse albedo and emission from the materials, Blender's lights
-and the world colour in Cycles' units. What cannot be mapped is approximated and reported."""
+modifiers and instances applied, Blender's lights and the world colour in Cycles' units, and
+for each mesh its Surface: the corners and material slots that materials.py has Cycles
+evaluate per lightmap texel. What cannot be mapped is approximated and reported."""
 from dataclasses import dataclass, field
 import itertools
 import math
@@ -12,17 +13,19 @@ import numpy as np
 from ..native import PointLight, Scene, SceneError, SetUpProgress, SpotLight, SunLight
 from ..native.atlas import overlapping_faces
 from ..native.scene import UV_TOLERANCE, triangle_areas
-from . import display
+from .materials import instance_key, may_emit
 from .writeback import MODIFIER, UV_MAP, UV_MAP_BACK
 
-MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (native checks < 1)
 DISK_SEGMENTS = 32
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # what Cycles shows for an empty material slot
-TEXTURE_TINT = (0.9999,) * 3       # the solver multiplies textures by it; it must stay below 1
 # export_steps reads objects for this long between its pauses (a modal bake's timer ticks):
 # short for Esc, long enough that walking again past the instances done costs little.
 EXPORT_PIECE_SECONDS = 0.05
 EXPORT_STAGE = "exporting the scene"
+# A mesh's materials until materials.evaluate_materials gives Cycles' own per texel: the
+# default grey, and this emission where a material may emit (it decides which triangles are
+# emitters, hence the atlas, before the evaluation).
+MAY_EMIT = (1.0, 1.0, 1.0)
 
 
 @dataclass
@@ -46,9 +49,28 @@ class Receiver:
 
 
 @dataclass
+class Surface:
+    """One mesh copy's triangles as Blender shades them: ``key`` (instance_key) finds its
+    evaluated object in the depsgraph again, ``loops`` (T, 3) are the corners of its
+    triangles (from ``first_triangle`` on) in the evaluated mesh of ``corners`` corners,
+    ``slot`` (T,) their material slots, ``materials`` the slots' material names (None:
+    empty)."""
+    key: tuple
+    object_index: int
+    first_triangle: int
+    loops: np.ndarray
+    corners: int
+    slot: np.ndarray
+    materials: list
+
+
+@dataclass
 class Export:
+    """The scene, its shown copies and its meshes' surfaces. The meshes' albedo and emission
+    are stand-ins (DEFAULT_ALBEDO, MAY_EMIT) until materials.evaluate_materials."""
     scene: Scene
     receivers: list
+    surfaces: list = field(default_factory=list)
     warnings: list = field(default_factory=list)
     emission_of_material: dict = field(default_factory=dict)
 
@@ -58,15 +80,8 @@ class _Inward:
     """A closed mesh's part of the collector whose faces all point inwards."""
     name: str
     part: int                   # index into the collector's per-object lists
+    surface: Surface
     receiver: Receiver = None
-
-
-@dataclass
-class _Material:
-    albedo: tuple = DEFAULT_ALBEDO
-    emission: tuple = (0.0, 0.0, 0.0)
-    texture: int = -1           # index into the export's albedo textures
-    uv_map: str = ""            # UV map the texture is sampled through ("" = active render)
 
 
 class _Collector:
@@ -76,7 +91,6 @@ class _Collector:
         self.receive, self.occlude, self.object_index = [], [], []
         self.receive_back = []
         self.polygon, self.polygon_count = [], 0
-        self.albedo_uv, self.texture_index = [], []
         self.lightmap_uv = []
         self.object_names, self.texel_scale = [], []
         self.layout, self.slot, self.block = [], [], []
@@ -95,8 +109,7 @@ class _Collector:
         return index
 
     def add(self, vertices, normals, triangles, obj, albedo, emission, two_sided, receive,
-            occlude, albedo_uv, texture_index, receive_back=False, polygon=None,
-            lightmap_uv=None):
+            occlude, receive_back=False, polygon=None, lightmap_uv=None):
         count = len(triangles)
         self.lightmap_uv.append(np.full((count, 3, 2), np.nan) if lightmap_uv is None
                                 else lightmap_uv)
@@ -115,8 +128,6 @@ class _Collector:
                             else polygon + self.polygon_count)
         self.polygon_count += 0 if polygon is None else int(polygon.max(initial=-1)) + 1
         self.object_index.append(np.full(count, obj))
-        self.albedo_uv.append(albedo_uv)
-        self.texture_index.append(texture_index)
         first = self.triangle_count
         self.triangle_count += count
         return first
@@ -155,7 +166,8 @@ def _export_pieces(scene, depsgraph, excluded):
     done = 0
     while True:
         # An instance lives only while the depsgraph is walked, and Blender's event loop runs
-        # between pieces: each piece walks again, past the instances already done.
+        # between pieces: each piece walks again, past the instances already done. materials.py
+        # finds the instances in this order.
         deadline = time.perf_counter() + EXPORT_PIECE_SECONDS
         for instance in itertools.islice(depsgraph.object_instances, done, None):
             exporter.add_instance(instance)
@@ -182,11 +194,8 @@ class _Exporter:
         self.collector = _Collector()
         self.lights = []
         self.receivers = []
+        self.surfaces = []
         self.warnings = []
-        self.materials = {}
-        self.textures = []
-        self.texture_of_image = {}
-        self.emission_of_material = {}
         self.shown_copies = set()
         self.inward = []        # closed meshes whose normals point inwards (_Inward)
         self.faceless = []      # meshes without faces: reported unless they instance
@@ -222,9 +231,10 @@ class _Exporter:
             # Geometry nodes' instances come as instances of the object that makes them.
             made_by_nodes = instance.is_instance and original.type == 'MESH' and (
                 instancer == original)
-            self.add_mesh_object(obj, name, matrix, instancer, made_by_nodes)
+            self.add_mesh_object(obj, name, matrix, instancer, instance_key(instance),
+                                 made_by_nodes)
 
-    def add_mesh_object(self, obj, name, matrix, instancer, made_by_nodes=False):
+    def add_mesh_object(self, obj, name, matrix, instancer, key, made_by_nodes=False):
         original = obj.original
         try:
             mesh = obj.to_mesh()
@@ -235,7 +245,7 @@ class _Exporter:
                 if original.type == 'MESH':
                     self.faceless.append(name)
                 return
-            self._add_mesh(obj, mesh, name, matrix, instancer, made_by_nodes)
+            self._add_mesh(obj, mesh, name, matrix, instancer, key, made_by_nodes)
         finally:
             obj.to_mesh_clear()
 
@@ -291,7 +301,7 @@ class _Exporter:
             self.shown_copies.add((slot, block))
         return layout, slot, block, uv_source, shows
 
-    def _add_mesh(self, obj, mesh, name, matrix, instancer, made_by_nodes):
+    def _add_mesh(self, obj, mesh, name, matrix, instancer, key, made_by_nodes):
         original = obj.original
         texel_scale, back_faces = original.luxel.resolution_scale, original.luxel.back_faces
         triangles_count = len(mesh.loop_triangles)
@@ -331,27 +341,15 @@ class _Exporter:
         triangles = inverse.reshape(-1, 3)
 
         slots = [slot.material for slot in obj.material_slots] or [None]
-        infos = [self._material(material) for material in slots]
-        material_index = np.clip(material_index, 0, len(infos) - 1)
+        material_index = np.clip(material_index, 0, len(slots) - 1)
         if any(slots[slot] is None for slot in np.unique(material_index)):
             self.warn(f"'{name}' has faces without a material (no material, or an empty "
                       "slot): they are baked as Blender's default grey, albedo "
                       f"{DEFAULT_ALBEDO[0]}; assign a material to choose their colour")
-        albedo = np.array([info.albedo for info in infos])[material_index]
-        emission = np.array([info.emission for info in infos])[material_index]
-        texture_index = np.array([info.texture for info in infos])[material_index]
-        albedo_uv = np.zeros((triangles_count, 3, 2))
-        for slot, info in enumerate(infos):
-            chosen = material_index == slot
-            if info.texture < 0 or not chosen.any():
-                continue
-            uv = self._uv_layer(mesh, info.uv_map, name, slots[slot])
-            if uv is None:
-                texture_index[chosen] = -1
-                albedo[chosen] = self.textures[info.texture][..., :3].mean(axis=(0, 1))
-            else:
-                albedo_uv[chosen] = uv[loops[chosen]]
-
+        emits = np.array([material is not None and may_emit(material.original)
+                          for material in slots])[material_index]
+        albedo = np.tile(DEFAULT_ALBEDO, (triangles_count, 1))
+        emission = np.where(emits[:, None], MAY_EMIT, 0.0)
         receive_back = back_faces == 'ON' or (back_faces == 'AUTO' and emission.max() > 0.0
                                               and _is_open(loop_vertex[loops]))
         lightmap_uv = None
@@ -364,8 +362,10 @@ class _Exporter:
         # Every surface receives in the solver, so that it reflects; only those whose object
         # asks for one show a lightmap.
         first = self.collector.add(vertices, normals, triangles, object_index, albedo, emission,
-                                   True, True, True, albedo_uv, texture_index, receive_back,
-                                   polygon, lightmap_uv)
+                                   True, True, True, receive_back, polygon, lightmap_uv)
+        surface = Surface(key, object_index, first, loops, len(mesh.loops), material_index,
+                          [None if m is None else m.original.name for m in slots])
+        self.surfaces.append(surface)
         receiver = None
         if shows:
             receiver = Receiver(original.name, instancer.name, object_index,
@@ -374,7 +374,8 @@ class _Exporter:
             self.receivers.append(receiver)
         closed = not _is_open(loop_vertex[loops])
         if closed and _signed_volume(vertices[triangles]) < 0.0:
-            self.inward.append(_Inward(name, len(self.collector.triangles) - 1, receiver))
+            self.inward.append(_Inward(name, len(self.collector.triangles) - 1, surface,
+                                       receiver))
 
     def _own_lightmap_uv(self, mesh, uv_map, name, loops, polygon):
         """The corners (T, 3, 2) of the object's own lightmap UV map, refused (before anything
@@ -422,110 +423,6 @@ class _Exporter:
             self.warn(f"'{name}' was skipped: none of its triangles can be baked ({found}); "
                       f"{fix}")
         return usable
-
-    def _uv_layer(self, mesh, uv_map, object_name, material):
-        layers = mesh.uv_layers
-        layer = layers.get(uv_map) if uv_map else next(
-            (layer for layer in layers if layer.active_render), None)
-        if layer is None:
-            self.warn(f"material '{material.name}' on '{object_name}': its image texture needs a "
-                      f"UV map{' ' + repr(uv_map) if uv_map else ''} the mesh lacks; the image's "
-                      "mean colour is used instead")
-            return None
-        return _array(layer.uv, "vector", np.float64, (-1, 2))
-
-    # ---------------------------------------------------------------- materials
-    def _material(self, material):
-        key = material.name if material is not None else None
-        if key not in self.materials:
-            self.materials[key] = self._read_material(material)
-            if material is not None and max(self.materials[key].emission) > 0:
-                self.emission_of_material[material.name] = self.materials[key].emission
-        return self.materials[key]
-
-    def _read_material(self, material):
-        info = _Material()
-        if material is None:
-            return info
-        tree = material.node_tree
-        output = _active_output(tree, 'ShaderNodeOutputMaterial') if tree else None
-        if output is not None and output.name.startswith(display.NODE_PREFIX):
-            # "Show baked lighting" is on: read the user's own output, not Luxel's.
-            output = tree.nodes.get(material.original[display.STATE_KEY]["output"])
-        if output is None or not output.inputs["Surface"].is_linked:
-            info.albedo = _clamp_albedo(tuple(material.diffuse_color[:3]), material, self)
-            return info
-        shaders = _shader_nodes(output.inputs["Surface"].links[0].from_node)
-        diffuse = [n for n in shaders if n.bl_idname in ('ShaderNodeBsdfPrincipled',
-                                                         'ShaderNodeBsdfDiffuse')]
-        emitters = [n for n in shaders if n.bl_idname == 'ShaderNodeEmission']
-        others = [n for n in shaders if n not in diffuse and n not in emitters]
-        if others or len(diffuse) > 1:
-            self.warn(f"material '{material.name}': only one Principled or Diffuse BSDF and "
-                      "Emission nodes are read; the rest of its shader is approximated")
-        info.albedo = (0.0, 0.0, 0.0)
-        emission = np.zeros(3)
-        if diffuse:
-            node = diffuse[0]
-            colour = node.inputs["Base Color" if "Base Color" in node.inputs else "Color"]
-            info.albedo = self._colour_input(colour, material, info)
-            if node.bl_idname == 'ShaderNodeBsdfPrincipled':
-                info.albedo = tuple(np.array(info.albedo) * _principled_diffuse_share(node))
-                emission += self._emission(node.inputs["Emission Color"],
-                                           node.inputs["Emission Strength"], material)
-        for node in emitters:
-            emission += self._emission(node.inputs["Color"], node.inputs["Strength"], material)
-        info.emission = tuple(emission)
-        return info
-
-    def _colour_input(self, socket, material, info):
-        if not socket.is_linked:
-            return _clamp_albedo(tuple(socket.default_value[:3]), material, self)
-        source = socket.links[0].from_node
-        if source.bl_idname == 'ShaderNodeTexImage' and source.image is not None:
-            info.texture = self._texture(source.image, material)
-            vector = source.inputs["Vector"]
-            if vector.is_linked and vector.links[0].from_node.bl_idname == 'ShaderNodeUVMap':
-                info.uv_map = vector.links[0].from_node.uv_map
-            elif vector.is_linked:
-                self.warn(f"material '{material.name}': the image texture's coordinates are "
-                          "not a UV map; the active render UV map is used")
-            return TEXTURE_TINT
-        self.warn(f"material '{material.name}': its base colour comes from a "
-                  f"'{source.name}' node, which Luxel cannot read; the socket's own colour is "
-                  "used instead")
-        return _clamp_albedo(tuple(socket.default_value[:3]), material, self)
-
-    def _texture(self, image, material):
-        if image.name not in self.texture_of_image:
-            width, height = image.size
-            if width == 0 or height == 0:
-                raise SceneError(f"material '{material.name}': image '{image.name}' has no "
-                                 "pixels (missing file?); fix the path or remove the node")
-            pixels = np.empty(width * height * 4, dtype=np.float32)
-            image.pixels.foreach_get(pixels)
-            pixels = pixels.reshape(height, width, 4)[..., :3].astype(np.float64)
-            if not image.is_float and image.colorspace_settings.name == 'sRGB':
-                pixels = _srgb_to_linear(pixels)
-            if pixels.max() > MAX_ALBEDO:
-                self.warn(f"image '{image.name}' has colours of 1 or more; they are lowered to "
-                          f"{MAX_ALBEDO} (a diffuse surface cannot reflect all light)")
-            if pixels.min() < 0.0:
-                self.warn(f"image '{image.name}' has negative colours; they are raised to 0 (a "
-                          "surface cannot reflect negative light)")
-            self.textures.append(np.clip(pixels, 0.0, MAX_ALBEDO))
-            self.texture_of_image[image.name] = len(self.textures) - 1
-        return self.texture_of_image[image.name]
-
-    def _emission(self, colour, strength, material):
-        if colour.is_linked or strength.is_linked:
-            self.warn(f"material '{material.name}': emission driven by other nodes is "
-                      "approximated by the sockets' own values")
-        strength = float(strength.default_value)
-        if strength < 0.0:
-            self.warn(f"material '{material.name}': a negative emission strength is raised to "
-                      "0 (light cannot be negative); set it to 0 or more")
-        return np.maximum(np.array(colour.default_value[:3]), 0.0) * max(strength, 0.0)
 
     # ------------------------------------------------------------------- lights
     def add_light(self, obj, matrix):
@@ -585,7 +482,7 @@ class _Exporter:
         obj = self.collector.add_object(name)
         self.collector.add(vertices, np.tile(normal, (len(vertices), 1)), triangles, obj,
                            np.zeros((count, 3)), np.tile(radiance, (count, 1)), False, False,
-                           False, np.zeros((count, 3, 2)), np.full(count, -1))
+                           False)
 
     # -------------------------------------------------------------------- world
     def sky(self):
@@ -628,8 +525,8 @@ class _Exporter:
                 continue
             c.triangles[inward.part] = c.triangles[inward.part][:, ::-1].copy()
             c.normals[inward.part] = -c.normals[inward.part]
-            for corners_of in (c.albedo_uv, c.lightmap_uv):
-                corners_of[inward.part] = corners_of[inward.part][:, ::-1].copy()
+            c.lightmap_uv[inward.part] = c.lightmap_uv[inward.part][:, ::-1].copy()
+            inward.surface.loops = inward.surface.loops[:, ::-1].copy()
             if inward.receiver is not None:
                 inward.receiver.loops = inward.receiver.loops[:, ::-1].copy()
             self.warn(f"'{inward.name}' is a closed mesh whose normals point inwards, with "
@@ -662,12 +559,10 @@ class _Exporter:
             object_index=np.concatenate(c.object_index), object_names=c.object_names,
             object_texel_scale=c.texel_scale, object_layout=layout,
             object_slot=numbered(c.slot), object_block=numbered(c.block),
-            albedo_uv=np.concatenate(c.albedo_uv),
             lightmap_uv=(np.concatenate(c.lightmap_uv) if any(
                 np.isfinite(uv).any() for uv in c.lightmap_uv) else None),
-            albedo_texture_index=np.concatenate(c.texture_index),
-            albedo_textures=self.textures, lights=self.lights, sky=self.sky())
-        return Export(scene, self.receivers, self.warnings, self.emission_of_material)
+            lights=self.lights, sky=self.sky())
+        return Export(scene, self.receivers, self.surfaces, self.warnings)
 
 
 # ---------------------------------------------------------------------- helpers
@@ -689,44 +584,6 @@ def _active_output(tree, idname):
         if node.is_active_output and getattr(node, "target", "ALL") in ('ALL', 'CYCLES'):
             return node
     return outputs[0] if outputs else None
-
-
-def _shader_nodes(node, depth=0):
-    """The shader nodes feeding a surface, through Mix and Add shaders."""
-    if node.bl_idname in ('ShaderNodeMixShader', 'ShaderNodeAddShader') and depth < 16:
-        found = []
-        for socket in node.inputs:
-            if socket.type == 'SHADER' and socket.is_linked:
-                found += _shader_nodes(socket.links[0].from_node, depth + 1)
-        return found
-    if node.bl_idname == 'NodeReroute' and node.inputs[0].is_linked and depth < 16:
-        return _shader_nodes(node.inputs[0].links[0].from_node, depth + 1)
-    return [node]
-
-
-def _principled_diffuse_share(node):
-    """The part of the Principled BSDF's light that reaches its diffuse base: metals and
-    transmission have none, and the dielectric specular layer on top reflects F0 at normal
-    incidence (first order: the layer reflects more at grazing angles), F0 from the IOR scaled
-    by twice the Specular IOR Level as in Blender."""
-    def value(name, default):
-        socket = node.inputs.get(name)
-        return float(socket.default_value) if socket is not None else default
-    ior = value("IOR", 1.5)
-    f0 = ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0 * value("Specular IOR Level", 0.5)
-    share = (1.0 - value("Metallic", 0.0)) * (1.0 - value("Transmission Weight", 0.0))
-    return share * (1.0 - min(max(f0, 0.0), 1.0))
-
-
-def _clamp_albedo(colour, material, exporter):
-    if max(colour) > MAX_ALBEDO:
-        exporter.warn(f"material '{material.name}': a base colour of 1 or more is lowered to "
-                      f"{MAX_ALBEDO} (a diffuse surface cannot reflect all light)")
-    return tuple(min(max(value, 0.0), MAX_ALBEDO) for value in colour)
-
-
-def _srgb_to_linear(values):
-    return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4)
 
 
 def _excluded_objects(view_layer):

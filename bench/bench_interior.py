@@ -4,7 +4,11 @@ each shown copy's mean against a Cycles bake into the same lightmap UVs (objects
 through Luxel's modifier, curves, text and instances through stand-ins of their evaluated
 meshes: addon/reference.py, copies=True).
 
-    python bench/bench_interior.py [--density D] [--threshold T] [--samples N] [--json PATH]
+    python bench/bench_interior.py [--density D] [--threshold T] [--samples N]
+                                   [--default-materials] [--json PATH]
+
+--default-materials gives every Principled BSDF Blender's default specular layer (Specular
+IOR Level 0.5, Roughness 0.5) in place of the file's matte ones.
 """
 import argparse
 import importlib
@@ -26,6 +30,7 @@ def main():
     parser.add_argument("--density", type=float, default=10.0)
     parser.add_argument("--threshold", type=float, default=0.02)
     parser.add_argument("--samples", type=int, default=128)
+    parser.add_argument("--default-materials", action="store_true")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     bpy = runner.start_blender()
@@ -34,6 +39,12 @@ def main():
     bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / "interior.blend"))
     scene = bpy.context.scene
     scene.luxel.texel_density, scene.luxel.threshold = args.density, args.threshold
+    if args.default_materials:
+        for material in bpy.data.materials:
+            for node in material.node_tree.nodes if material.node_tree else ():
+                if node.bl_idname == 'ShaderNodeBsdfPrincipled':
+                    node.inputs["Specular IOR Level"].default_value = 0.5
+                    node.inputs["Roughness"].default_value = 0.5
 
     export = addon.export.export_scene(bpy.context)
     solver_scene = export.scene
@@ -49,21 +60,28 @@ def main():
     seconds = time.perf_counter() - started
     stats = scene.luxel.stats
     started = time.perf_counter()
-    means = reference.object_means(reference.cycles_reference(bpy.context, args.samples, 32,
-                                                              copies=True))
+    cycles = reference.cycles_reference(bpy.context, args.samples, 32, copies=True)
+    means = reference.object_means(cycles)
     cycles_seconds = time.perf_counter() - started
     luminance = np.array([0.2126, 0.7152, 0.0722])
     rows = []
     for name, mean in sorted(means.items()):
         ratio = float(mean.luxel @ luminance / max(mean.cycles @ luminance, 1e-30))
+        # Relative RMS of the texels' luminance over Cycles' mean, on the texels Cycles baked.
+        covered = cycles[name][..., 3] > 0
+        luxel = reference._pixels(reference.luxel_page(scene, name))[covered][:, :3]
+        difference = (luxel - cycles[name][covered][:, :3]) @ luminance
+        rms = float(np.sqrt(np.mean(difference ** 2)) / max(mean.cycles @ luminance, 1e-30))
         rows.append({"object": name, "texels": mean.texels, "luxel": mean.luxel.tolist(),
-                     "cycles": mean.cycles.tolist(), "ratio": ratio})
-        print(f"{name:>14} {mean.texels:7d} texels  Luxel/Cycles {ratio:6.3f}")
+                     "cycles": mean.cycles.tolist(), "ratio": ratio, "relative_rms": rms})
+        print(f"{name:>14} {mean.texels:7d} texels  Luxel/Cycles {ratio:6.3f}  "
+              f"relative RMS {rms:6.3f}")
     result = {"solver_objects": len(solver_scene.object_names), "receivers": len(export.receivers),
               "triangles": len(solver_scene.triangles), "area_shown": float(shown / rendered),
               "bake_seconds": seconds, "texels": stats.texels, "shots": stats.shots,
               "unshot_percent": stats.unshot, "density": args.density,
               "threshold": args.threshold, "cycles_samples": args.samples,
+              "default_materials": args.default_materials,
               "cycles_seconds": cycles_seconds, "objects": rows,
               "warnings": list(export.warnings)}
     print(f"shown {100 * result['area_shown']:.1f} % of the rendered area; bake {seconds:.1f} s, "

@@ -4,7 +4,9 @@ is not installed (the npz files are committed). Needs the bpy module:
     python bench/export_scenes.py                       # columns and cornell_box
     python bench/export_scenes.py temple office         # others from sample_blends/
 
-The scene is what a bake exports (addon/export.py); its warnings are printed."""
+The scene is what a bake exports (addon/export.py), with its materials as Cycles evaluates
+them per texel of the file's own lightmap settings (addon/materials.py; the textures serve
+any density, at that one's resolution); its warnings are printed."""
 import argparse
 import sys
 
@@ -22,11 +24,13 @@ def main():
     args = parser.parse_args()
 
     bpy = blender.start_blender()
-    export = blender.luxel().addon.export
+    addon = blender.luxel().addon
     SCENES.mkdir(exist_ok=True)
     for name in args.names:
         bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / f"{name}.blend"))
-        result = export.export_scene(bpy.context)
+        result = addon.export.export_scene(bpy.context)
+        addon.materials.evaluate_materials(bpy.context.evaluated_depsgraph_get(), result,
+                                           bpy.context.scene.luxel.solver_settings())
         for warning in result.warnings:
             print(f"{name}: warning: {warning}")
         path = SCENES / f"{name}.npz"

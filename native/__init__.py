@@ -6,12 +6,12 @@ from .gpu import create_context
 from .output import read_exr, tone_map, write_exr, write_png
 from .scene import PointLight, Scene, SpotLight, SunLight
 from .settings import MAX_SUBDIVISION_LEVEL, PROJECTIONS, SUBDIVISIONS, Settings
-from .solver import Ledger, Progress, SetUpProgress, Solver
+from .solver import Ledger, Progress, SetUpProgress, Solver, lightmap_atlas
 
 __all__ = [
     "Atlas", "build_atlas", "GLUnavailableError", "GPUMemoryError", "LuxelError", "SceneError",
     "SettingsError", "create_context", "read_exr", "tone_map", "write_exr", "write_png",
     "PointLight", "Scene", "SpotLight", "SunLight", "Ledger", "Progress", "SetUpProgress",
-    "Settings", "Solver",
+    "Settings", "Solver", "lightmap_atlas",
     "PROJECTIONS", "SUBDIVISIONS", "MAX_SUBDIVISION_LEVEL",
 ]

@@ -12,7 +12,8 @@ from .errors import GPUMemoryError
 # (RGBA16, 8 B: 16-bit fixed point holds 0.99 within 8e-6, where half floats' 0.99023 put
 # 2.4 % more light in a closed room of that albedo), the octahedral normal, its spread and
 # spread axis (RGBA16, 8 B) and the subdivision level (R8, 1 B). The rasterization depth
-# (4 B) lives only until the irradiance is made.
+# (4 B) and the albedo the lightmaps show (RGBA16, 8 B, read to the CPU) live only until the
+# irradiance is made.
 BYTES_PER_TEXEL = 3 * 16 + 8 + 8 + 1
 # The selection pyramid's first level holds a texel (RGBA32F) per block; the levels above
 # it add a third.

@@ -37,11 +37,10 @@ def lightmaps(state, ambient):
     radiance = ambient(irradiance) if ambient is not None else np.zeros(3)
     pages = []
     for page, image in zip(state.pages, irradiance):
-        material = read_map(page.textures["material"])
-        occupied = material[..., 3] > 0   # a receiving texel (rasterized: area > 0)
+        occupied = read_map(page.textures["material"])[..., 3] > 0   # a receiving texel
         image *= np.float32(1.0 / math.pi)
         image += np.append(radiance, 0.0).astype(np.float32)
-        image *= material
+        image[..., :3] *= page.albedo
         image *= occupied[..., None]
         image[..., 3] = occupied
         image = in_atlas_layout(state, page, image)

@@ -12,7 +12,13 @@ from .gpu import buffer_content, render_state, set_uniform
 from .state import MAP_UNITS, Bounds, Energy, Page, decode_normals, read_map
 
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
-                 ("in_albedo", 3), ("in_emission", 3), ("in_receive", 1))
+                 ("in_albedo", 3), ("in_reflectance", 3), ("in_emission", 3), ("in_receive", 1))
+# The textures a triangle's material reads: (Scene's index and list, sampler unit, switch).
+MATERIAL_TEXTURES = (("albedo_texture_index", "albedo_textures", 0, "u_use_texture"),
+                     ("emission_texture_index", "emission_textures", 1,
+                      "u_use_emission_texture"),
+                     ("reflectance_texture_index", "reflectance_textures", 2,
+                      "u_use_reflectance_texture"))
 # The bounding sphere's radius is the bounding box's half diagonal times this, plus
 # BOUNDS_MARGIN; the depth tolerance is EPSILON_SHARE of it.
 BOUNDS_GROWTH = 1.01
@@ -39,7 +45,7 @@ HEMISPHERE_MAP_SCALE = 2
 
 @dataclass
 class RasterVertices:
-    """The lightmap vertex buffer, drawn in runs of (page, albedo texture): per triangle of
+    """The lightmap vertex buffer, drawn in runs of (page, material textures): per triangle of
     it (a 'slot') the scene triangle and the page."""
     vbo: object
     slot_triangles: np.ndarray
@@ -76,13 +82,14 @@ def number_surfaces(scene):
 
 
 def create_gpu_state(state):
-    """The programs and their constant uniforms, the albedo textures and the pages' maps."""
+    """The programs and their constant uniforms, the material textures and the pages' maps."""
     gl = state.gl
     state.programs = create_programs(gl, state.settings)
     state.fullscreen = {name: gl.vertex_array(state.programs[name], [])
                         for name in ("block", "argmax", "patch", "light")}
     set_constant_uniforms(state)
-    state.albedo_textures = albedo_textures(gl, state.scene)
+    state.material_textures = {name: material_textures(gl, getattr(state.scene, name))
+                               for _, name, _, _ in MATERIAL_TEXTURES}
     size = (state.packed.width, state.packed.height)
     state.pages = [allocate_page(gl, state.settings, size)
                    for _ in range(state.packed.page_count)]
@@ -123,7 +130,8 @@ def set_constant_uniforms(state):
                  "u_emitting_surfaces": state.emitting_surfaces,
                  "u_visibility": 0, **{f"u_{name}": unit for name, unit in MAP_UNITS.items()}}
     constants = {
-        "attributes": {"u_atlas_size": size, "u_albedo_texture": 0},
+        "attributes": {"u_atlas_size": size, "u_albedo_texture": 0,
+                       "u_emission_texture": 1, "u_reflectance_texture": 2},
         "area": {"u_atlas_size": size},
         "moments": {"u_atlas_size": size, "u_normal": 0},
         "block": {"u_block": 1 << settings.shoot_level, "u_position": 0, "u_unshot": 1},
@@ -147,9 +155,9 @@ def set_constant_uniforms(state):
             set_uniform(state.programs[name], uniform, value)
 
 
-def albedo_textures(gl, scene):
+def material_textures(gl, images):
     textures = []
-    for image in scene.albedo_textures:
+    for image in images:
         image = np.asarray(image, dtype=np.float32)
         rgba = np.ones(image.shape[:2] + (4,), np.float32)
         rgba[..., :image.shape[2]] = image
@@ -202,17 +210,18 @@ def rasterize(state):
         normals = np.repeat(face[:, None, :], 3, axis=1)
     tex_uv = (scene.albedo_uv[tris] if scene.albedo_uv is not None
               else np.zeros((len(tris), 3, 2)))
-    texture_index = scene.albedo_texture_index[tris]
+    texture_index = np.stack([getattr(scene, index)[tris]
+                              for index, _, _, _ in MATERIAL_TEXTURES], axis=1)
     per_corner = lambda values: np.repeat(values[:, None, :], 3, axis=1)
     vertex_data = np.concatenate([
         atlas.texels, positions, normals, tex_uv, per_corner(scene.albedo[tris]),
-        per_corner(scene.emission[tris]),
+        per_corner(scene.reflectance[tris]), per_corner(scene.emission[tris]),
         per_corner((scene.receive * state.surfaces)[tris, None].astype(float)),
     ], axis=2).astype("f4")
-    # Draw in runs of (page, albedo texture).
-    order = np.lexsort((texture_index, atlas.page))
+    # Draw in runs of (page, material textures).
+    order = np.lexsort((*texture_index.T[::-1], atlas.page))
     vertex_data = vertex_data[order]
-    keys = np.stack([atlas.page[order], texture_index[order]], axis=1)
+    keys = np.column_stack([atlas.page[order], texture_index[order]])
     starts = np.nonzero(np.r_[True, (keys[1:] != keys[:-1]).any(axis=1)])[0]
     ends = np.r_[starts[1:], len(keys)]
 
@@ -224,10 +233,12 @@ def rasterize(state):
     ctx = state.ctx
 
     # The attributes, and the emission as the first unshot radiance, with a depth map the
-    # pages share in turn (pages are drawn in order).
+    # pages share in turn (pages are drawn in order). The albedo the lightmaps show goes to
+    # the CPU (postprocess.lightmaps): the GPU needs only what the texels reflect.
     depth = gl.depth_texture((atlas.width, atlas.height))
+    albedo = gl.texture((atlas.width, atlas.height), 4, "nu2")
     rasters = [gl.framebuffer([page.textures[name] for name in
-                               ("position", "normal", "material", "unshot")], depth)
+                               ("position", "normal", "material", "unshot")] + [albedo], depth)
                for page in pages]
     for page in pages:
         page.level_only.clear(0.0, 0.0, 0.0, 0.0)
@@ -235,18 +246,21 @@ def rasterize(state):
         program = programs["attributes"]
         rasters[0].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         for start, end in zip(starts, ends):   # runs are sorted by page
-            page_index, texture = keys[start]
+            page_index, *indices = keys[start]
             if start and keys[start - 1][0] != page_index:   # the next page: the depth anew
+                _keep_albedo(pages[keys[start - 1][0]], albedo)
                 rasters[page_index].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             rasters[page_index].use()
-            set_uniform(program, "u_use_texture", int(texture >= 0))
-            if texture >= 0:
-                state.albedo_textures[texture].use(location=0)
+            for (_, name, unit, uniform), index in zip(MATERIAL_TEXTURES, indices):
+                set_uniform(program, uniform, int(index >= 0))
+                if index >= 0:
+                    state.material_textures[name][index].use(location=unit)
             vaos["attributes"].render(moderngl.TRIANGLES, vertices=3 * (end - start),
                                       first=3 * start)
+        _keep_albedo(pages[keys[-1][0]], albedo)
     # moderngl binds the last used framebuffer again after making one: not a released one.
     pages[0].area_only.use()
-    gl.release_now(*rasters, depth)
+    gl.release_now(*rasters, depth, albedo)
     # The irradiance takes the depth's memory: the peak stays at BYTES_PER_TEXEL.
     for page in pages:
         irradiance = page.textures["irradiance"] = gl.texture((atlas.width, atlas.height), 4)
@@ -257,6 +271,10 @@ def rasterize(state):
                           color_mask=[(True,) * 4, (False,) * 4]):
             page.receivers.clear(0.0, 0.0, 0.0, 0.0)
     return RasterVertices(vbo, tris[order], atlas.page[order])
+
+
+def _keep_albedo(page, albedo):
+    page.albedo = read_map(albedo)[..., :3]
 
 
 def measure_surface(state, vaos, run_pages, starts, ends):

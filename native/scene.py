@@ -82,7 +82,9 @@ class Scene:
 
     vertices (V, 3), triangles (T, 3) vertex indices, counter-clockwise seen from the front.
     normals (V, 3), optional shading normals; face normals otherwise.
-    albedo (T, 3) diffuse reflectance in [0, 1); emission (T, 3) emitted radiance
+    albedo (T, 3) diffuse reflectance in [0, 1): what the lightmap shows, rho E / pi;
+    reflectance (T, 3) in [0, 1), the albedo by default: what the surface reflects into the
+    room, as if diffuse (more than the albedo where glossy layers reflect too); emission (T, 3) emitted radiance
     (Blender's emission colour x strength); emission_two_sided (T,) emits from both faces
     as Blender's emission shader does (default) or only from the front.
     receive (T,) gets a lightmap; non-receiving triangles still occlude and emit.
@@ -110,6 +112,12 @@ class Scene:
     albedo_texture_index (T,) into albedo_textures ((H, W, 3 or 4) linear float arrays, row 0
     at v = 0) sampled through albedo_uv (T, 3, 2); -1 for none. The texture is multiplied by
     the triangle's albedo.
+    emission_texture_index (T,) into emission_textures (the same, in radiance, 0 or more),
+    sampled through albedo_uv too and multiplied by the triangle's emission, which then bounds
+    its scale (emitted_power() counts the triangle's emission, untextured). The add-on gives
+    reflectance_texture_index (T,) into reflectance_textures likewise, times the reflectance.
+    The add-on gives the three per lightmap page: Cycles' evaluation of the materials at each
+    texel.
     """
     vertices: np.ndarray
     triangles: np.ndarray
@@ -133,6 +141,11 @@ class Scene:
     object_slot: np.ndarray = None
     object_block: np.ndarray = None
     lightmap_uv: np.ndarray = None
+    emission_texture_index: np.ndarray = None
+    emission_textures: list = field(default_factory=list)
+    reflectance: np.ndarray = None
+    reflectance_texture_index: np.ndarray = None
+    reflectance_textures: list = field(default_factory=list)
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -156,6 +169,8 @@ class Scene:
             return array
 
         self.albedo = per_triangle(self.albedo, 0.8, np.float64, 3)
+        self.reflectance = (self.albedo.copy() if self.reflectance is None
+                            else per_triangle(self.reflectance, 0.0, np.float64, 3))
         self.emission = per_triangle(self.emission, 0.0, np.float64, 3)
         self.emission_two_sided = per_triangle(self.emission_two_sided, True, bool)
         self.receive = per_triangle(self.receive, True, bool)
@@ -166,6 +181,9 @@ class Scene:
         self.sky = _vec3(self.sky, "sky")
         self.object_index = per_triangle(self.object_index, 0, np.int64)
         self.albedo_texture_index = per_triangle(self.albedo_texture_index, -1, np.int64)
+        self.emission_texture_index = per_triangle(self.emission_texture_index, -1, np.int64)
+        self.reflectance_texture_index = per_triangle(self.reflectance_texture_index, -1,
+                                                      np.int64)
         if self.albedo_uv is not None:
             self.albedo_uv = np.ascontiguousarray(self.albedo_uv, dtype=np.float64)
         if self.lightmap_uv is not None:
@@ -217,15 +235,17 @@ class Scene:
                        int(np.argmax(degenerate)))
         self.triangle_area = area
 
-        for name, values in (("albedo", self.albedo), ("emission", self.emission)):
+        for name, values in (("albedo", self.albedo), ("reflectance", self.reflectance),
+                             ("emission", self.emission)):
             bad = ~np.isfinite(values).all(axis=1)
             if bad.any():
                 self._fail(f"{name} is not finite", int(np.argmax(bad)))
-        bad = ((self.albedo < 0.0) | (self.albedo >= 1.0)).any(axis=1)
-        if bad.any():
-            triangle = int(np.argmax(bad))
-            self._fail(f"albedo {self.albedo[triangle].tolist()} is outside [0, 1); a diffuse "
-                       "surface cannot reflect all light: lower the base colour below 1", triangle)
+        for name, values in (("albedo", self.albedo), ("reflectance", self.reflectance)):
+            bad = ((values < 0.0) | (values >= 1.0)).any(axis=1)
+            if bad.any():
+                triangle = int(np.argmax(bad))
+                self._fail(f"{name} {values[triangle].tolist()} is outside [0, 1); a surface "
+                           "cannot reflect all light: lower the base colour below 1", triangle)
         bad = (self.emission < 0.0).any(axis=1)
         if bad.any():
             self._fail("emission is negative; use a colour and strength of 0 or more",
@@ -246,19 +266,12 @@ class Scene:
         if self.lightmap_uv is not None:
             self._validate_lightmap_uv()
 
-        textured = self.albedo_texture_index >= 0
-        if textured.any():
-            if self.albedo_uv is None or self.albedo_uv.shape != (len(self.triangles), 3, 2):
-                raise SceneError("albedo_uv of shape (T, 3, 2) is needed with albedo textures")
-            if (self.albedo_texture_index >= len(self.albedo_textures)).any():
-                self._fail("albedo texture index out of range",
-                           int(np.argmax(self.albedo_texture_index >= len(self.albedo_textures))))
-            for index, image in enumerate(self.albedo_textures):
-                image = np.asarray(image)
-                if image.ndim != 3 or image.shape[2] not in (3, 4) or not np.isfinite(image).all():
-                    raise SceneError(f"albedo texture {index} must be a finite (H, W, 3|4) array")
-                if image[..., :3].min() < 0.0 or image[..., :3].max() >= 1.0:
-                    raise SceneError(f"albedo texture {index} has values outside [0, 1)")
+        for kind, index, textures, top in (
+                ("albedo", self.albedo_texture_index, self.albedo_textures, 1.0),
+                ("emission", self.emission_texture_index, self.emission_textures, np.inf),
+                ("reflectance", self.reflectance_texture_index, self.reflectance_textures,
+                 1.0)):
+            self._validate_textures(kind, index, textures, top)
 
         for light in self.lights:
             self._validate_light(light)
@@ -270,6 +283,22 @@ class Scene:
         if self.emitted_power().sum() <= 0.0 and sun_power <= 0.0 and self.sky.sum() <= 0.0:
             raise SceneError("the scene has no light: add a light with positive power or a "
                              "material with emission colour and strength above 0")
+
+    def _validate_textures(self, kind, index, textures, top):
+        """Texture indices in range, UVs where they are used, and values in [0, top)."""
+        if not (index >= 0).any():
+            return
+        if self.albedo_uv is None or self.albedo_uv.shape != (len(self.triangles), 3, 2):
+            raise SceneError(f"albedo_uv of shape (T, 3, 2) is needed with {kind} textures")
+        if (index >= len(textures)).any():
+            self._fail(f"{kind} texture index out of range",
+                       int(np.argmax(index >= len(textures))))
+        for number, image in enumerate(textures):
+            image = np.asarray(image)
+            if image.ndim != 3 or image.shape[2] not in (3, 4) or not np.isfinite(image).all():
+                raise SceneError(f"{kind} texture {number} must be a finite (H, W, 3|4) array")
+            if image[..., :3].min() < 0.0 or image[..., :3].max() >= top:
+                raise SceneError(f"{kind} texture {number} has values outside [0, {top})")
 
     def _validate_lightmap_uv(self):
         uv = self.lightmap_uv
@@ -361,7 +390,14 @@ class Scene:
                 self.lightmap_uv, self.lightmap_uv[backs][:, ::-1]),
             albedo_texture_index=extend(self.albedo_texture_index,
                                         self.albedo_texture_index[backs]),
-            albedo_textures=self.albedo_textures, lights=self.lights,
+            albedo_textures=self.albedo_textures,
+            emission_texture_index=extend(self.emission_texture_index,
+                                          self.emission_texture_index[backs]),
+            emission_textures=self.emission_textures,
+            reflectance=extend(self.reflectance, self.reflectance[backs]),
+            reflectance_texture_index=extend(self.reflectance_texture_index,
+                                             self.reflectance_texture_index[backs]),
+            reflectance_textures=self.reflectance_textures, lights=self.lights,
             occlude=extend(self.occlude, np.zeros(len(backs), bool)), sky=self.sky,
             polygon=extend(self.polygon, np.full(len(backs), -1)))   # no UV map shows copies
         copy.back_of = extend(np.full(count, -1), backs)  # the original of each copy
@@ -386,9 +422,9 @@ class Scene:
             if name == "lights":
                 value = json.dumps([{"type": type(light).__name__, **_plain(asdict(light))}
                                     for light in value])
-            elif name == "albedo_textures":
+            elif name in _TEXTURE_KEYS:
                 for index, image in enumerate(value):
-                    arrays[f"{_TEXTURE_KEY}{index}"] = np.asarray(image)
+                    arrays[f"{_TEXTURE_KEYS[name]}{index}"] = np.asarray(image)
                 continue
             elif value is None:
                 continue
@@ -401,9 +437,10 @@ class Scene:
         """The scene save() wrote, validated again as any new scene is."""
         with np.load(path, allow_pickle=False) as stored:
             values = {key: stored[key] for key in stored.files}
-        textures = sorted((key for key in values if key.startswith(_TEXTURE_KEY)),
-                          key=lambda key: int(key[len(_TEXTURE_KEY):]))
-        values["albedo_textures"] = [values.pop(key) for key in textures]
+        for name, prefix in _TEXTURE_KEYS.items():
+            keys = sorted((key for key in values if key.startswith(prefix)),
+                          key=lambda key: int(key[len(prefix):]))
+            values[name] = [values.pop(key) for key in keys]
         values["lights"] = [_LIGHT_TYPES[light.pop("type")](**light)
                             for light in json.loads(str(values["lights"]))]
         values["object_names"] = [str(name) for name in values["object_names"]]
@@ -411,7 +448,9 @@ class Scene:
         return cls(**values)
 
 
-_TEXTURE_KEY = "albedo_textures_"
+_TEXTURE_KEYS = {"albedo_textures": "albedo_textures_",
+                 "emission_textures": "emission_textures_",
+                 "reflectance_textures": "reflectance_textures_"}
 _LIGHT_TYPES = {light.__name__: light for light in (PointLight, SpotLight, SunLight)}
 
 

@@ -11,10 +11,11 @@ evaluation paper), in lightmap space, with the hemicube for visibility.
     while solver.set_up_step():                          # charting (xatlas), preprocessing
         print(solver.set_up_progress)                    # the next piece's stage, share done
 
-Per texel the maps hold world position and area, normal, albedo, the receiving surface's
-number, the subdivision level, the accumulated irradiance E and the unshot radiance. A
-lightmap texel is rho * E / pi, the reflected diffuse radiance a Cycles DIFFUSE bake (direct
-+ indirect + colour) writes. Each stage of a shot is a module of its own (preprocess,
+Per texel the maps hold world position and area, normal, reflectance (what the texel
+reflects into the room), the receiving surface's number, the subdivision level, the
+accumulated irradiance E and the unshot radiance. A lightmap texel is rho * E / pi, rho the
+diffuse albedo (kept on the CPU), the reflected diffuse radiance a Cycles DIFFUSE bake
+(direct + indirect + colour) writes. Each stage of a shot is a module of its own (preprocess,
 selection, shooters, visibility, subdivision, receivers, thin_gaps, postprocess); they share
 the records of state.py. This module keeps the public API and the per-shot loop.
 """
@@ -65,6 +66,30 @@ class Progress:
 class SetUpProgress:
     stage: str          # what the next set_up_step() works on: one of SET_UP_STAGES
     fraction: float     # the share of the set-up done
+
+
+def lightmap_atlas(scene, settings):
+    """The atlas a Solver of ``scene`` and ``settings`` lays its lightmaps out on, charted
+    before any GPU work (the Solver then finds it in build_atlas's cache): the add-on
+    evaluates the materials per texel of it first. Refuses, as the Solver does, a density whose
+    surface alone would overflow the memory."""
+    scene = scene.with_back_faces()
+    settings.validate()
+
+    def fits_at(density):
+        packed = tight_packing(_chart(scene, settings, density), 1 << settings.shoot_level)[0]
+        needed = memory.memory_needed(packed, settings,
+                                      preprocess.visibility_map_size(settings))
+        return needed <= settings.memory_limit
+
+    memory.check_surface_fits(scene, settings, fits_at)
+    return _chart(scene, settings, settings.texel_density)
+
+
+def _chart(scene, settings, density):
+    """The one call to build_atlas, so that the add-on's atlas and the Solver's are one."""
+    return build_atlas(scene, density, settings.max_atlas_size, settings.padding,
+                       align=1 << settings.shoot_level)
 
 
 class Solver:
@@ -253,7 +278,7 @@ class Solver:
             surfaces=surfaces, emitting_surfaces=emitting_surfaces)
         memory.check_surface_fits(scene, settings, self._fits_at)
         started = time.perf_counter()
-        self.atlas = state.atlas = self._chart(settings.texel_density)
+        self.atlas = state.atlas = _chart(scene, settings, settings.texel_density)
         # The GPU works on the charts packed tight; results go back to self.atlas's layout.
         state.packed, state.texel_map = tight_packing(self.atlas, 1 << settings.shoot_level)
         self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
@@ -306,17 +331,14 @@ class Solver:
     def _measure_emission(self):
         self._energy = preprocess.measure_emission(self._state)
 
-    def _chart(self, density):
-        return build_atlas(self.scene, density, self.settings.max_atlas_size,
-                           self.settings.padding, align=1 << self.settings.shoot_level)
-
     def _fits(self, atlas):
         return memory.fits(atlas, self.settings, self._state.map_size,
                            self.ctx.info["GL_MAX_TEXTURE_SIZE"])
 
     def _fits_at(self, density):
         """Whether the packed atlas of ``density`` fits (memory's search for one that does)."""
-        return self._fits(tight_packing(self._chart(density), 1 << self.settings.shoot_level)[0])
+        return self._fits(tight_packing(_chart(self.scene, self.settings, density),
+                                        1 << self.settings.shoot_level)[0])
 
     def _light_power(self, light):
         return receivers.light_power(light, self._state.bounds.radius)

@@ -37,6 +37,9 @@ class Page:
     # zeroed as they shoot (the ambient term leaves direct light out).
     emission_left: tuple = (np.zeros(0, np.int64), np.zeros((0, 3)))
     area: np.ndarray = None    # (H, W) float32: each texel's area, m^2 (it does not change)
+    # (H, W, 3) float32: the diffuse albedo the lightmap shows (the material map holds what
+    # the texel reflects into the room, more where glossy layers reflect too)
+    albedo: np.ndarray = None
 
     def use_maps(self, *names):
         """Bind the named maps to their units (MAP_UNITS)."""
@@ -68,7 +71,7 @@ class BakeState:
     texel_map: object = None    # packed page texels -> atlas texels (atlas.tight_packing)
     programs: dict = None
     fullscreen: dict = None     # vertex arrays drawing one screen-filling triangle
-    albedo_textures: list = None
+    material_textures: dict = None   # Scene's texture lists, by name, on the GPU
     pages: list = None
     points_vbo: object = None   # one point per texel a shot changes in place (blend_points)
     points_vao: object = None

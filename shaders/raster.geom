@@ -14,6 +14,7 @@ in VertexData {
     vec3 normal;
     vec2 tex_uv;
     vec3 albedo;
+    vec3 reflectance;
     vec3 emission;
     float receive;
 } v[];
@@ -23,6 +24,7 @@ flat out vec3 g_position[3];
 flat out vec3 g_normal[3];
 flat out vec2 g_tex_uv[3];
 flat out vec3 g_albedo;
+flat out vec3 g_reflectance;
 flat out vec3 g_emission;
 flat out float g_receive;
 flat out vec3 g_face_normal;
@@ -53,6 +55,7 @@ void main() {
     vec2 lo = floor(min(min(t0, t1), t2));
     vec2 hi = floor(max(max(t0, t1), t2)) + 1.0;
     g_albedo = v[0].albedo;
+    g_reflectance = v[0].reflectance;
     g_emission = v[0].emission;
     g_receive = v[0].receive;
     vec2 corners[4] = vec2[4](lo, vec2(hi.x, lo.y), vec2(lo.x, hi.y), hi);

@@ -4,7 +4,8 @@ in vec2 in_texel;      // lightmap position in texels
 in vec3 in_position;   // world position
 in vec3 in_normal;     // shading normal
 in vec2 in_tex_uv;     // albedo texture coordinates
-in vec3 in_albedo;
+in vec3 in_albedo;      // diffuse albedo the lightmap shows
+in vec3 in_reflectance; // what the surface reflects into the room
 in vec3 in_emission;   // radiance from the front face
 in float in_receive;   // its surface's number when the triangle receives, else 0
 
@@ -14,6 +15,7 @@ out VertexData {
     vec3 normal;
     vec2 tex_uv;
     vec3 albedo;
+    vec3 reflectance;
     vec3 emission;
     float receive;
 } v;
@@ -24,6 +26,7 @@ void main() {
     v.normal = in_normal;
     v.tex_uv = in_tex_uv;
     v.albedo = in_albedo;
+    v.reflectance = in_reflectance;
     v.emission = in_emission;
     v.receive = in_receive;
     gl_Position = vec4(0.0);

@@ -5,8 +5,8 @@ of the receivers face the light (a Cycles bake is of the front side).
 Materials are Principled BSDFs with base colours well below 1 and Specular IOR Level 0, so
 the albedo is the base colour exactly; ``point_scene(specular=0.5, roughness=0.5)`` is the
 default Principled BSDF, whose specular layer takes about 4 % from Cycles' diffuse pass
-(measured: 0.6385 against 0.6633 under a point light) and which the export models to first
-order."""
+(measured: 0.6385 against 0.6633 under a point light), as Cycles' own evaluation of the
+materials gives it (addon/materials.py)."""
 import math
 
 import blender_session

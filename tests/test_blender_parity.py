@@ -41,8 +41,8 @@ CASES = {
     "emissive-mesh": (blender_scenes.emissive_scene, 256, 32, STAGE_OBJECTS),
     "world": (blender_scenes.world_scene, 256, 32, STAGE_OBJECTS),
     # The default Principled BSDF (Specular IOR Level 0.5, Roughness 0.5): Cycles' specular
-    # layer takes about 3.7 % from the diffuse pass here; the export lowers the albedo by the
-    # layer's reflectance at normal incidence.
+    # layer takes about 3.7 % from the diffuse pass here, and reflects it onto the others
+    # (addon/materials.py bakes both shares).
     "point-default-principled": (
         lambda: blender_scenes.point_scene(specular=0.5, roughness=0.5), 256, 32, STAGE_OBJECTS),
     "cornell-box": (blender_scenes.cornell_scene, 1024, 32, CORNELL_OBJECTS),

@@ -1,6 +1,7 @@
 """Numerically hard scenes against independent truths: emitters millimetres from receivers,
 coplanar lights, tiny, huge and sliver triangles with T-junctions, high albedo, geometry seen
 from behind, thousands of shots, and random scenes and settings."""
+import dataclasses
 import math
 
 import numpy as np
@@ -632,4 +633,22 @@ def test_a_zero_thickness_wall_keeps_the_dark_room_dark(ctx, gl_clean, projectio
     farther = x >= 1.0 / density
     assert values[next_to_wall].max() < 0.01 * lit
     assert values[farther].max() < 0.0025 * lit
+    assert ledger.imbalance() < 1e-4
+
+
+def test_furnace_reflects_its_reflectance_and_shows_its_albedo(ctx, gl_clean):
+    """Closed cube, emission 1, reflecting 0.8 into the room (a glossy layer's share on top of
+    a diffuse albedo of 0.5): radiance 1 / (1 - 0.8) = 5 arrives everywhere, and a lightmap
+    texel shows the albedo's share of it, 0.5 x 5 (what a Cycles DIFFUSE bake writes); 0.2 %
+    is left unshot."""
+    scene = dataclasses.replace(scenes.furnace_cube(0.5), reflectance=np.full((12, 3), 0.8))
+    solver = Solver(scene, Settings(texel_density=8, threshold=0.002, hemicube_resolution=64,
+                                    ambient=False), ctx=ctx)
+    try:
+        solver.run()
+        values = solver.result()[0]
+        ledger = solver.ledger()
+    finally:
+        solver.release()
+    np.testing.assert_allclose(values[values[..., 3] == 1][:, :3], 0.5 * 5.0, rtol=0.005)
     assert ledger.imbalance() < 1e-4

@@ -1,0 +1,444 @@
+"""Materials as Cycles sees them: each mesh's albedo and emission per lightmap texel.
+
+evaluate_materials charts the lightmap atlas first (native.lightmap_atlas, the one the solver
+then finds cached) and has Cycles bake every mesh copy's materials into it: DIFFUSE with only
+the COLOR pass (the albedo a Cycles DIFFUSE bake multiplies its light by, whatever the node
+tree: textures through any coordinates, procedurals, vertex colours, attributes, node groups,
+mixes, the layers above a Principled BSDF's diffuse base), GLOSSY with only the COLOR pass
+(what the glossy layers reflect: specular, coat, metal) and EMIT (colour x strength). Each
+page's images go to the solver as textures through the atlas UVs: the albedo is what the
+lightmap shows (a Cycles DIFFUSE bake's colour), the albedo plus the glossy colour what the
+surface reflects into the room, as if diffuse (see README, "Materials"). Materials whose nodes
+cannot vary over the surface bake at one sample per texel, the others at MATERIAL_SAMPLES
+jittered over the texel (Cycles' pixel filter averages what lies inside a texel).
+
+Cycles bakes temporary copies of the evaluated meshes, with temporary copies of their
+materials, in a temporary scene: the user's scene, objects, materials, images, render
+settings and UV maps are never edited, and every temporary block is removed, whatever
+happens."""
+from dataclasses import dataclass, field, replace
+
+import bpy
+import numpy as np
+
+from ..native import SceneError, lightmap_atlas
+from ..native.postprocess import fill_gutter
+from .display import NODE_PREFIX, STATE_KEY, strip_display_nodes
+
+MATERIAL_SAMPLES = 32       # Cycles samples per texel of a material that varies
+MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (native checks < 1)
+TEXTURE_TINT = 0.9999       # the solver multiplies the textures by it; it must stay below 1
+TEMP_PREFIX = "Luxel Materials "
+BAKE_UV = "Luxel Materials UV"
+OUTSIDE_UV = -16.0          # where corners outside the atlas go: off every image
+GUTTER_TEXELS = 3           # filled around each chart: partly covered texels and the
+#                             bilinear filter at chart borders read real values
+DEFAULT_COLOUR = (0.8, 0.8, 0.8, 1.0)   # what Cycles shows for an empty material slot
+# Nodes whose output does not vary over a surface unless something that does feeds them.
+_VARYING_PREFIXES = ("ShaderNodeTex",)
+_VARYING = {"ShaderNodeTexCoord", "ShaderNodeUVMap", "ShaderNodeAttribute",
+            "ShaderNodeVertexColor", "ShaderNodeNewGeometry", "ShaderNodeObjectInfo",
+            "ShaderNodeParticleInfo", "ShaderNodeHairInfo", "ShaderNodePointInfo",
+            "ShaderNodeTangent", "ShaderNodeFresnel", "ShaderNodeLayerWeight",
+            "ShaderNodeWireframe", "ShaderNodeBevel", "ShaderNodeAmbientOcclusion",
+            "ShaderNodeLightPath", "ShaderNodeCameraData", "ShaderNodeScript",
+            "ShaderNodeNormalMap", "ShaderNodeBump", "ShaderNodeDisplacement"}
+_EMITTERS = {"ShaderNodeEmission", "ShaderNodeBackground"}
+
+
+@dataclass
+class _Bake:
+    """The temporary blocks of one evaluation, removed by release()."""
+    scene: object = None
+    objects: list = field(default_factory=list)
+    meshes: list = field(default_factory=list)
+    materials: list = field(default_factory=list)
+    images: list = field(default_factory=list)
+
+    def release(self):
+        for obj in self.objects:
+            bpy.data.objects.remove(obj)
+        for kind, blocks in ((bpy.data.meshes, self.meshes), (bpy.data.materials, self.materials),
+                             (bpy.data.images, self.images)):
+            for block in blocks:
+                kind.remove(block)
+        if self.scene is not None:
+            bpy.data.scenes.remove(self.scene)
+        self.objects, self.meshes, self.materials, self.images = [], [], [], []
+        self.scene = None
+
+
+@dataclass
+class _Copy:
+    """A temporary object of one Surface, baked into images of its box on its page (``low``,
+    ``size``: whole texels), in the group of its sample count."""
+    obj: object
+    page: int
+    low: np.ndarray
+    size: np.ndarray
+    varies: bool
+    emits: bool
+
+
+def evaluate_materials(depsgraph, export, settings):
+    """Replace ``export.scene``'s stand-in materials (export.Export) with Cycles' evaluation per
+    texel of the atlas that ``settings`` chart; add the warnings of what Cycles cannot
+    evaluate as Luxel needs it, and the materials' mean emission (export.emission_of_material,
+    for the display). Returns the atlas."""
+    scene = export.scene
+    atlas = lightmap_atlas(scene, settings)
+    count = len(scene.triangles)
+    own = atlas.triangles < count                # the back faces' copies read their fronts
+    row_of = np.full(count, -1)
+    row_of[atlas.triangles[own]] = np.nonzero(own)[0]
+    corner_uv = atlas.uv()
+    bake = _Bake()
+    try:
+        copies = _make_copies(depsgraph, export, atlas, row_of, bake)
+        albedo, glossy, emission = _bake_pages(copies, atlas, bake)
+    finally:
+        bake.release()
+    _check_range(export, atlas, albedo, emission)
+    reflectance = [np.clip(a + g, 0.0, MAX_ALBEDO) for a, g in zip(albedo, glossy)]
+    meshes = np.zeros(count, dtype=bool)
+    for surface in export.surfaces:
+        meshes[surface.first_triangle:surface.first_triangle + len(surface.loops)] = True
+    charted = meshes & (row_of >= 0)
+    page = np.where(charted, atlas.page[row_of], -1)
+    uv = np.zeros((count, 3, 2))
+    uv[charted] = corner_uv[row_of[charted]]
+    emits = charted & (scene.emission.max(axis=1) > 0.0)
+    tinted = np.where(charted[:, None], TEXTURE_TINT, scene.albedo)
+    export.scene = replace(
+        scene, albedo=tinted, albedo_uv=uv, albedo_texture_index=page, albedo_textures=albedo,
+        reflectance=tinted, reflectance_texture_index=page, reflectance_textures=reflectance,
+        emission_texture_index=np.where(emits, page, -1), emission_textures=emission)
+    export.emission_of_material = _mean_emission(export, atlas, row_of, emission)
+    return atlas
+
+
+def instance_key(instance):
+    """What tells a depsgraph instance apart from the others, from one iteration to the next."""
+    instancer = instance.parent.original.name if instance.is_instance else ""
+    return (instance.object.original.name, instancer, tuple(instance.persistent_id))
+
+
+def may_emit(material):
+    """Whether ``material`` may emit light anywhere: an Emission node, or a Principled BSDF
+    whose emission strength is wired or not 0 (Cycles' negative values are warned of),
+    feeds its output (through any nodes, node groups included). Cycles measures how much
+    (EMIT); this only decides, before the atlas is charted, which triangles are emitters
+    (they shoot from a copy of their back too)."""
+    output = _user_output(material)
+    return output is not None and any(
+        node.bl_idname in _EMITTERS or (
+            node.bl_idname == 'ShaderNodeBsdfPrincipled'
+            and (node.inputs["Emission Strength"].is_linked
+                 or node.inputs["Emission Strength"].default_value != 0.0))
+        for node in _upstream(output))
+
+
+# ------------------------------------------------------------------------ the copies
+def _make_copies(depsgraph, export, atlas, row_of, bake):
+    """A temporary object per charted Surface: its evaluated mesh (every attribute kept) at
+    its place, with its place in the atlas as BAKE_UV (in its own box of texels: Cycles bakes
+    each object over its whole image) and copies of its materials whose active node is an
+    image of its box."""
+    bake.scene = bpy.data.scenes.new(TEMP_PREFIX + "Scene")
+    surfaces = {surface.key: surface for surface in export.surfaces
+                if atlas.object_page[surface.object_index] >= 0}
+    copies = []
+    found = []
+    for instance in depsgraph.object_instances:
+        surface = surfaces.pop(instance_key(instance), None)
+        if surface is None:
+            continue
+        mesh = bpy.data.meshes.new_from_object(instance.object, preserve_all_data_layers=True,
+                                               depsgraph=depsgraph)
+        bake.meshes.append(mesh)
+        if len(mesh.loops) != surface.corners:     # not the mesh the export saw
+            surfaces[surface.key] = surface
+            continue
+        found.append((surface, mesh, instance.matrix_world.copy()))
+    # Instances Blender cannot hand over as meshes of their own (some that geometry nodes
+    # make): their exported triangles, without the mesh's attributes.
+    for surface in surfaces.values():
+        mesh = _triangle_mesh(export.scene, surface)
+        bake.meshes.append(mesh)
+        found.append((surface, mesh, None))
+        name = export.scene.object_names[surface.object_index]
+        export.warnings.append(f"'{name}': Blender does not give its evaluated mesh apart, so "
+                               "its materials were evaluated without its UV maps and "
+                               "attributes (realize its instances to bake them)")
+    for surface, mesh, matrix in found:
+        page = int(atlas.object_page[surface.object_index])
+        rows = row_of[surface.first_triangle + np.arange(len(surface.loops))]
+        texels = atlas.texels[rows[rows >= 0]].reshape(-1, 2)
+        low = np.floor(texels.min(axis=0)).astype(int)
+        size = np.maximum(np.ceil(texels.max(axis=0)).astype(int) - low, 1)
+        corners = np.full((len(rows), 3, 2), OUTSIDE_UV)
+        corners[rows >= 0] = (atlas.texels[rows[rows >= 0]] - low) / size
+        _set_bake_uv(mesh, surface, corners, export.scene, in_loops=matrix is not None)
+        obj = bpy.data.objects.new(TEMP_PREFIX + mesh.name, mesh)
+        bake.objects.append(obj)
+        bake.scene.collection.objects.link(obj)
+        if matrix is not None:
+            obj.matrix_world = matrix
+        originals = [None if name is None else bpy.data.materials[name]
+                     for name in surface.materials]
+        targets = {}
+        for slot, original in enumerate(originals):
+            if original not in targets:
+                targets[original] = _baking_material(original, bake)
+            if slot < len(mesh.materials):
+                mesh.materials[slot] = targets[original]
+            else:
+                mesh.materials.append(targets[original])
+        used = [originals[slot] for slot in np.unique(surface.slot)
+                if originals[slot] is not None]
+        for original in used:
+            for node, why in _unevaluable(original):
+                export.warnings.append(f"material '{original.name}': node '{node}' {why}")
+        copies.append(_Copy(obj, page, low, size, any(_varies(m) for m in used),
+                            any(may_emit(m) for m in used)))
+    export.warnings[:] = list(dict.fromkeys(export.warnings))
+    return copies
+
+
+def _triangle_mesh(scene, surface):
+    """A mesh of the surface's exported triangles (world space), one corner each, with their
+    material slots."""
+    triangles = surface.first_triangle + np.arange(len(surface.loops))
+    corners = scene.vertices[scene.triangles[triangles]].reshape(-1, 3)
+    mesh = bpy.data.meshes.new(TEMP_PREFIX + scene.object_names[surface.object_index])
+    mesh.from_pydata(corners.tolist(), [], np.arange(len(corners)).reshape(-1, 3).tolist())
+    mesh.polygons.foreach_set("material_index", surface.slot.astype(np.int32))
+    for _ in surface.materials:
+        mesh.materials.append(None)
+    return mesh
+
+
+def _set_bake_uv(mesh, surface, corners, scene, *, in_loops):
+    """BAKE_UV: ``corners`` (T, 3, 2) at the surface's corners in the evaluated mesh
+    (``in_loops``), or at the corners of _triangle_mesh's triangles, in order."""
+    if len(mesh.uv_layers) >= 8:
+        name = scene.object_names[surface.object_index]
+        raise SceneError(f"object '{name}' has 8 UV maps, Blender's limit, and Luxel needs one "
+                         "more to evaluate its materials: remove one", name)
+    uv = np.full((len(mesh.loops), 2), OUTSIDE_UV)
+    if in_loops:
+        uv[surface.loops.ravel()] = corners.reshape(-1, 2)
+    else:
+        uv[:] = corners.reshape(-1, 2)
+    # A new map is the active render one only where the mesh has none: the user's materials
+    # still read their own UVs.
+    layer = mesh.uv_layers.new(name=BAKE_UV, do_init=False)
+    layer.uv.foreach_set("vector", uv.astype(np.float32).ravel())
+    mesh.uv_layers.active = layer
+
+
+def _baking_material(original, bake):
+    """A copy of ``original`` (Blender's default surface for an empty slot) without Luxel's
+    display nodes, whose active node is the image Cycles bakes into (set per pass)."""
+    if original is None:
+        material = bpy.data.materials.new(TEMP_PREFIX + "Default")
+        tree = material.node_tree
+        tree.nodes.clear()
+        diffuse = tree.nodes.new('ShaderNodeBsdfDiffuse')
+        diffuse.inputs["Color"].default_value = DEFAULT_COLOUR
+        output = tree.nodes.new('ShaderNodeOutputMaterial')
+        tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+    else:
+        material = original.copy()
+        material.name = TEMP_PREFIX + original.name
+        if STATE_KEY in material:
+            strip_display_nodes(material)
+    bake.materials.append(material)
+    if material.node_tree is None:      # a material without nodes: its viewport colour
+        material.use_nodes = True
+        tree = material.node_tree
+        principled = next(n for n in tree.nodes if n.bl_idname == 'ShaderNodeBsdfPrincipled')
+        principled.inputs["Base Color"].default_value = (*original.diffuse_color[:3], 1.0)
+    target = material.node_tree.nodes.new('ShaderNodeTexImage')
+    target.name = TEMP_PREFIX + "Target"
+    material.node_tree.nodes.active = target
+    return material
+
+
+# ------------------------------------------------------------------------- the bakes
+def _bake_pages(copies, atlas, bake):
+    """Per page, the albedo, glossy colour and emission (H, W, 3), row 0 at v = 0: each
+    object's box pasted where Cycles baked a texel (its centre on a triangle), the gutters
+    around the charts filled."""
+    settings = bake.scene
+    settings.render.engine = 'CYCLES'
+    cycles = settings.cycles
+    cycles.device = 'CPU'
+    cycles.use_adaptive_sampling = False
+    cycles.use_denoising = False
+    cycles.seed = 0
+    view_layer = settings.view_layers[0]
+    passes = []
+    for kind, chosen in (('DIFFUSE', copies), ('GLOSSY', copies),
+                         ('EMIT', [copy for copy in copies if copy.emits])):
+        pages = np.zeros((atlas.page_count, atlas.height, atlas.width, 4), dtype=np.float32)
+        images = {}
+        for copy in chosen:
+            width, height = (int(n) for n in copy.size)
+            image = images[id(copy)] = bpy.data.images.new(
+                f"{TEMP_PREFIX}{kind}", width, height, alpha=True, float_buffer=True)
+            bake.images.append(image)
+            image.colorspace_settings.name = 'Linear Rec.709'
+            image.pixels.foreach_set(np.zeros(width * height * 4, dtype=np.float32))
+            for material in copy.obj.data.materials:
+                material.node_tree.nodes.active.image = image
+        for varies in (False, True):
+            group = [copy.obj for copy in chosen if copy.varies == varies]
+            if not group:
+                continue
+            cycles.samples = MATERIAL_SAMPLES if varies else 1
+            with bpy.context.temp_override(scene=settings, view_layer=view_layer,
+                                           selected_objects=group,
+                                           selected_editable_objects=group,
+                                           active_object=group[0], object=group[0]):
+                bpy.ops.object.bake(type=kind, pass_filter={'COLOR'}, uv_layer=BAKE_UV,
+                                    margin=0, use_clear=False, target='IMAGE_TEXTURES',
+                                    use_selected_to_active=False, use_cage=False)
+        for copy in chosen:
+            image = images[id(copy)]
+            width, height = image.size
+            pixels = np.empty(width * height * 4, dtype=np.float32)
+            image.pixels.foreach_get(pixels)
+            pixels = pixels.reshape(height, width, 4)
+            baked = pixels[..., 3] > 0.0
+            (x, y), page = copy.low, copy.page
+            box = pages[page, y:y + height, x:x + width]
+            box[baked] = np.concatenate([pixels[baked][:, :3],
+                                         np.ones((int(baked.sum()), 1), np.float32)], axis=1)
+        for page in pages:
+            fill_gutter(page, GUTTER_TEXELS)
+        passes.append([page[..., :3] for page in pages])
+    return passes
+
+
+def _check_range(export, atlas, albedo, emission):
+    """Albedo into [0, MAX_ALBEDO] and emission to 0 or more, with a warning naming the object
+    and its materials where Cycles gave more or less."""
+    scene = export.scene
+    # The back faces' copies (after the scene's triangles) are their originals' objects'.
+    object_of = np.concatenate([scene.object_index,
+                                scene.object_index[scene.back_face_originals()]])
+    for obj, page in enumerate(atlas.object_page):
+        if page < 0:
+            continue
+        rows = np.nonzero(object_of[atlas.triangles] == obj)[0]
+        low = np.floor(atlas.texels[rows].reshape(-1, 2).min(axis=0)).astype(int)
+        high = np.ceil(atlas.texels[rows].reshape(-1, 2).max(axis=0)).astype(int)
+        box = (slice(low[1], high[1]), slice(low[0], high[0]))
+        materials = sorted({m for surface in export.surfaces if surface.object_index == obj
+                            for m in surface.materials if m is not None})
+        name = f"'{scene.object_names[obj]}'" + (
+            f" (material {', '.join(repr(m) for m in materials)})" if materials else "")
+        if albedo[page][box].max(initial=0.0) > MAX_ALBEDO:
+            export.warnings.append(f"{name} reflects more than {MAX_ALBEDO} of the light in "
+                                   "places (a colour of 1 or more): lowered to "
+                                   f"{MAX_ALBEDO}, since a surface cannot reflect all light")
+        if albedo[page][box].min(initial=0.0) < 0.0:
+            export.warnings.append(f"{name} reflects negative light in places (a negative "
+                                   "colour): raised to 0")
+        if emission[page][box].min(initial=0.0) < 0.0:
+            export.warnings.append(f"{name} emits negative light in places (a negative "
+                                   "emission strength): raised to 0; set it to 0 or more")
+    for page in range(atlas.page_count):
+        np.clip(albedo[page], 0.0, MAX_ALBEDO, out=albedo[page])
+        np.maximum(emission[page], 0.0, out=emission[page])
+
+
+def _mean_emission(export, atlas, row_of, emission):
+    """{material name: its mean emitted radiance}, area-weighted over its emitting triangles'
+    centres (what the display adds to the baked light)."""
+    scene = export.scene
+    sums = {}
+    for surface in export.surfaces:
+        triangles = surface.first_triangle + np.arange(len(surface.loops))
+        rows = row_of[triangles]
+        chosen = (rows >= 0) & (scene.emission[triangles].max(axis=1) > 0.0)
+        if not chosen.any():
+            continue
+        centre = atlas.texels[rows[chosen]].mean(axis=1).astype(int)
+        page = atlas.page[rows[chosen]]
+        values = np.array([emission[p][y, x] for p, (x, y) in zip(page, centre)])
+        area = scene.triangle_area[triangles[chosen]]
+        for slot in np.unique(surface.slot[chosen]):
+            name = surface.materials[slot]
+            mine = surface.slot[chosen] == slot
+            total, weight = sums.get(name, (np.zeros(3), 0.0))
+            sums[name] = (total + (values[mine] * area[mine, None]).sum(axis=0),
+                          weight + area[mine].sum())
+    return {name: tuple(total / weight) for name, (total, weight) in sums.items()
+            if name is not None and weight > 0.0 and total.max() > 0.0}
+
+
+# ------------------------------------------------------------------------ node trees
+def _user_output(material):
+    """The material's active Cycles output, the user's own while Luxel's display shows."""
+    tree = material.node_tree
+    if tree is None:
+        return None
+    if STATE_KEY in material:
+        return tree.nodes.get(material[STATE_KEY]["output"])
+    outputs = [n for n in tree.nodes if n.bl_idname == 'ShaderNodeOutputMaterial']
+    for node in outputs:
+        if node.is_active_output and getattr(node, "target", "ALL") in ('ALL', 'CYCLES'):
+            return node
+    return outputs[0] if outputs else None
+
+
+def _upstream(node, seen=None):
+    """Every node that feeds ``node`` (itself included), inside node groups too."""
+    seen = set() if seen is None else seen
+    found = []
+    stack = [node]
+    while stack:
+        node = stack.pop()
+        if node.as_pointer() in seen or node.name.startswith(NODE_PREFIX):
+            continue
+        seen.add(node.as_pointer())
+        found.append(node)
+        if node.bl_idname == 'ShaderNodeGroup' and node.node_tree is not None:
+            outputs = [n for n in node.node_tree.nodes if n.bl_idname == 'NodeGroupOutput']
+            for output in outputs:
+                found += _upstream(output, seen)
+        for socket in node.inputs:
+            stack += [link.from_node for link in socket.links if link.is_valid]
+    return found
+
+
+def _varies(material):
+    """Whether a material's result may vary over a surface (it reads a texture, coordinates,
+    attributes, geometry or the view): such materials bake at MATERIAL_SAMPLES."""
+    output = _user_output(material)
+    return output is not None and any(
+        node.bl_idname in _VARYING or node.bl_idname.startswith(_VARYING_PREFIXES)
+        for node in _upstream(output))
+
+
+def _unevaluable(material):
+    """(node name, why) for what a bake of the material's copy on a copy of its mesh cannot
+    give as the scene renders it."""
+    output = _user_output(material)
+    for node in [] if output is None else _upstream(output):
+        if (node.bl_idname == 'ShaderNodeTexImage' and node.image is not None
+                and 0 in node.image.size):
+            yield node.name, (f"reads image '{node.image.name}', which has no pixels (missing "
+                              "file?): Cycles shows it magenta; fix the path or remove the node")
+        elif node.bl_idname == 'ShaderNodeLightPath':
+            yield node.name, ("depends on the kind of ray; Luxel evaluates the material as a "
+                              "camera ray sees it")
+        elif node.bl_idname == 'ShaderNodeObjectInfo' or (
+                node.bl_idname == 'ShaderNodeAttribute'
+                and node.attribute_type in {'OBJECT', 'INSTANCER', 'VIEW_LAYER'}):
+            yield node.name, ("reads the object, its instancer or the view layer; Luxel "
+                              "evaluates the material on a copy of the mesh, where these "
+                              "read their defaults")
+
