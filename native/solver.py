@@ -131,18 +131,24 @@ class Solver:
 
     def ambient_radiance(self):
         """The unshot light that has bounced at least once, as uniform radiance (Cohen et al.
-        1988): the share c of it that lands (c = received / shot so far: 1 in a closed
-        room), spread over the area, times 1 / (1 - c * mean albedo), the sum of its further
-        bounces. Emission not yet shot (lights, emitting texels) is left out: direct light
-        is far from even, and it shoots first anyway. result() adds albedo times this when
-        Settings.ambient is on."""
+        1988) on the texels it can reach: the share c of it that lands, spread over their
+        area, times 1 / (1 - c * their mean albedo), the sum of its further bounces. Once the
+        direct light is shot, c is what the reflected shots since delivered over what they
+        shot, and the texels are those they reached (what a flat floor reflects into the open
+        escapes; a room sealed from the light stays dark); before, c is received / shot of
+        all shots, over every lit texel. Emission not yet shot (lights, emitting texels) is
+        left out: direct light is far from even, and it shoots first anyway. result() adds
+        albedo times this when Settings.ambient is on."""
         with using(self.ctx):
             return self._ambient([read_map(page.textures["irradiance"])
-                                  for page in self._state.pages])
+                                  for page in self._state.pages]).radiance
 
     def _ambient(self, irradiance):
-        return postprocess.ambient_radiance(self._state, self._energy, irradiance,
-                                            self._gaps.arrived - self._gaps.shown_received)
+        return postprocess.ambient_term(self._state, self._energy, irradiance,
+                                        self._gap_correction(), self._reflected_start)
+
+    def _gap_correction(self):
+        return self._gaps.arrived - self._gaps.shown_received
 
     def release(self):
         """Release every GL object (and the context, if the solver made it). Idempotent."""
@@ -219,6 +225,7 @@ class Solver:
         state.points_vao = gl.vertex_array(state.programs["take"], [
             (state.points_vbo, "2f 4f", "in_texel", "in_taken")])
         self._queue = ShotQueue()
+        self._reflected_start = None   # postprocess.ReflectedStart, once direct light is shot
 
         self._measure_emission()
         lights = list(scene.lights) + receivers.sky_suns(scene.sky, settings.sky_directions)
@@ -264,10 +271,22 @@ class Solver:
         if queue.pending:
             queue.shots, queue.pending = queue.pending[:count], queue.pending[count:]
             return True
+        if self._reflected_start is None and self._direct_light_shot():
+            self._reflected_start = self._timed(
+                "selection", postprocess.reflected_start, self._state, energy,
+                [read_map(page.textures["irradiance"]) for page in self._state.pages],
+                self._gap_correction())
         queue.shots = self._timed("selection", self._make_shooters, candidates, count)
         # The GPU's float sums saw power the texels do not hold.
         self.converged = not queue.shots
         return not self.converged
+
+    def _direct_light_shot(self):
+        """Whether the emission left unshot is within the threshold's share of all emitted
+        (the lights are shot before any patch)."""
+        left = sum(float(np.mean(page.emission_left[1].sum(axis=0)))
+                   for page in self._state.pages)
+        return left <= self.settings.threshold * self._energy.emitted_scalar
 
     def _make_shooters(self, candidates, count):
         """Shooters of up to ``count`` candidate blocks (or of their finer parts), strongest
