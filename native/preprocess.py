@@ -35,6 +35,9 @@ BEND_DIRECTION_SINE = math.sin(math.radians(1.0))
 SELECTION_REGIONS = 1024
 # Hemisphere maps are twice the hemicube's side: the same texels per radian at the zenith.
 HEMISPHERE_MAP_SCALE = 2
+# The automatic hemicube resolution's least and most: the old fixed default, and where its
+# visibility map (24 B a texel) and render time stay small beside the atlas's (README).
+AUTOMATIC_HEMICUBE = (128, 512)
 
 
 @dataclass
@@ -52,9 +55,23 @@ def bounds_of(scene):
     return Bounds(centre=0.5 * (lo + hi), radius=radius, epsilon=EPSILON_SHARE * radius)
 
 
-def visibility_map_size(settings):
-    return settings.hemicube_resolution * (1 if settings.projection == "HEMICUBE"
-                                           else HEMISPHERE_MAP_SCALE)
+def hemicube_resolution(settings, scene):
+    """Settings.hemicube_resolution, or where it is 0 (automatic) the least power of two
+    at which a texel half the scene's diagonal away from a shooter covers a texel of a face
+    at its middle (a face texel there spans 2 / resolution radians), kept within
+    AUTOMATIC_HEMICUBE (its memory and time, README)."""
+    if settings.hemicube_resolution:
+        return settings.hemicube_resolution
+    lo, hi = scene.bounds()
+    typical_distance = 0.5 * float(np.linalg.norm(hi - lo))
+    needed = max(2.0 * typical_distance * settings.texel_density, 1.0)
+    least, most = AUTOMATIC_HEMICUBE
+    return int(min(max(2 ** math.ceil(math.log2(needed)), least), most))
+
+
+def visibility_map_size(settings, scene):
+    return hemicube_resolution(settings, scene) * (1 if settings.projection == "HEMICUBE"
+                                                   else HEMISPHERE_MAP_SCALE)
 
 
 def number_surfaces(scene):

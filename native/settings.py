@@ -46,6 +46,14 @@ class Setting:
     soft_maximum: float | None = None  # the top of Blender's slider: a hint, not a limit
     choices: tuple = ()             # of Choice
     exposed: Exposed | None = None  # None: the solver's own (tests, benchmarks)
+    automatic: int | None = None    # a value outside the range asking the solver to choose
+
+    @property
+    def lowest(self):
+        """The least value the setting takes (Blender's property minimum)."""
+        if self.automatic is None or self.minimum is None:
+            return self.minimum
+        return min(self.automatic, self.minimum)
 
     @property
     def identifiers(self):
@@ -55,6 +63,11 @@ class Setting:
     def allowed(self):
         """The values the setting takes, in words ("" when any of its kind will do)."""
         unit = f" {self.unit}" if self.unit else ""
+        if self.automatic is not None:
+            return f"{self.automatic} (automatic) or {self._range(unit)}"
+        return self._range(unit)
+
+    def _range(self, unit):
         if self.choices:
             return f"one of {', '.join(self.identifiers)}"
         if self.minimum is not None and self.maximum is not None:
@@ -67,6 +80,8 @@ class Setting:
 
     def problem(self, value):
         """What is wrong with ``value`` for this setting, or None."""
+        if self.automatic is not None and value == self.automatic:
+            return None
         if self.kind is float and not math.isfinite(value):
             return f"must be a finite number, got {_shown(value)}"
         low, high, given = self.minimum, self.maximum, value
@@ -132,9 +147,12 @@ SETTINGS = (
                             subtype='PIXEL')),
     Setting(name="padding", kind=int, default=2, unit="texels", minimum=1,
             help="Texels between charts"),
-    Setting(name="hemicube_resolution", kind=int, default=128, unit="texels", minimum=8,
-            maximum=4096, help="Texels on a side of each hemicube face; the hemisphere "
-            "projections' maps are twice as wide",
+    # 0: preprocess.hemicube_resolution() picks it from the texel density and the scene.
+    Setting(name="hemicube_resolution", kind=int, default=0, unit="texels", minimum=8,
+            maximum=4096, automatic=0, help="Texels on a side of each hemicube face; the "
+            "hemisphere projections' maps are twice as wide. 0 (automatic): the least power "
+            "of two at which a texel half the scene's diagonal away covers a face texel "
+            "(2 x that distance x the texel density), from 128 to 512",
             exposed=Exposed(label="Hemicube Resolution", option="--hemicube",
                             subtype='PIXEL')),
     Setting(name="shoot_level", kind=int, default=2, minimum=0, maximum=6,

@@ -194,7 +194,8 @@ class Solver:
         surfaces, emitting_surfaces = preprocess.number_surfaces(scene)
         state = self._state = BakeState(
             ctx=self.ctx, gl=gl, scene=scene, settings=settings,
-            bounds=preprocess.bounds_of(scene), map_size=preprocess.visibility_map_size(settings),
+            bounds=preprocess.bounds_of(scene),
+            map_size=preprocess.visibility_map_size(settings, scene),
             surfaces=surfaces, emitting_surfaces=emitting_surfaces)
         memory.check_surface_fits(scene, settings, self._fits_at)
         started = time.perf_counter()

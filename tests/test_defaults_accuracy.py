@@ -2,10 +2,14 @@
 each against an independent truth: an open scene (Lambert's polygon formula), two rooms
 sealed from each other (zero in the dark one) and a closed room of albedo 0.99 (the furnace,
 rho / (1 - rho)). The ambient term is on by default: these tests decide what it may add."""
+import math
+
 import numpy as np
+import pytest
 
 import analytic
 from native import PointLight, Settings, Solver
+from native.preprocess import AUTOMATIC_HEMICUBE, hemicube_resolution
 from native.samples import SceneBuilder
 
 
@@ -123,3 +127,26 @@ def test_lamp_a_fifth_of_a_millimetre_under_a_ceiling_lights_only_from_below(ctx
     truth = albedo * analytic.polygon_form_factors(positions[floor], normals[floor], lamp)
     relative = values[floor] / truth[:, None] - 1.0
     assert np.abs(relative).max() < 0.01, (relative.min(), relative.max())
+
+
+@pytest.mark.parametrize("density", [5.0, 20.0, 60.0, 160.0, 400.0, 5000.0])
+@pytest.mark.parametrize("size", [0.5, 4.0, 30.0])
+def test_automatic_hemicube_resolution_follows_the_texel_density(density, size):
+    """By default (0) the hemicube face is the least power of two at which a texel (1 /
+    density wide) half the scene's diagonal away spans at least one face texel at the face's
+    middle (2 / resolution radians), within AUTOMATIC_HEMICUBE; a value set is kept."""
+    assert Settings().hemicube_resolution == 0
+    scene = (SceneBuilder().quad("floor", [(0, 0, 0), (size, 0, 0), (size, size, 0),
+                                           (0, size, 0)])
+             .build([PointLight(position=(0.0, 0.0, 1.0), power=1.0)]))
+    distance = 0.5 * math.sqrt(2.0) * size
+    resolution = hemicube_resolution(Settings(texel_density=density), scene)
+    least, most = AUTOMATIC_HEMICUBE
+    assert least <= resolution <= most and resolution & (resolution - 1) == 0
+    texel_angle = 1.0 / (density * distance)
+    if resolution < most:      # covers a face texel (at most, the budget decides)
+        assert texel_angle >= 2.0 / resolution
+    if resolution > least:     # and half the resolution would not have
+        assert texel_angle < 2.0 / (resolution // 2)
+    assert hemicube_resolution(Settings(texel_density=density, hemicube_resolution=96),
+                               scene) == 96
