@@ -139,7 +139,8 @@ MAX_SUBDIVISION_LEVEL = 3
 # Settings has its fields in this order (and report.json its settings).
 SETTINGS = (
     Setting(name="texel_density", kind=float, default=20.0, unit="texels per metre",
-            minimum=0.01, soft_maximum=1000.0, help="Lightmap texels per metre of surface",
+            minimum=0.01, soft_maximum=1000.0, help="Lightmap texels per metre of surface. Each texel takes 66 bytes of GPU "
+            "memory (at 20: 26 kB per square metre); doubling it makes four times the texels",
             exposed=Exposed(label="Texel Density", option="--density")),
     Setting(name="max_atlas_size", kind=int, default=4096, unit="texels", minimum=16,
             soft_maximum=16384, help="Largest lightmap side; more images when exceeded",
@@ -152,7 +153,9 @@ SETTINGS = (
             maximum=4096, automatic=0, help="Texels on a side of each hemicube face; the "
             "hemisphere projections' maps are twice as wide. 0 (automatic): the least power "
             "of two at which a texel half the scene's diagonal away covers a face texel "
-            "(2 x that distance x the texel density), from 128 to 512",
+            "(2 x that distance x the texel density), from 128 to 512 (map 0.4 to 6.3 MB). "
+            "Cornell box at 160 texels per metre: 256, largest object mean error against "
+            "Cycles 1.2 % instead of 1.8 % at 128, bake 1.2 times as long",
             exposed=Exposed(label="Hemicube Resolution", option="--hemicube",
                             subtype='PIXEL')),
     Setting(name="shoot_level", kind=int, default=2, minimum=0, maximum=6,
@@ -160,7 +163,8 @@ SETTINGS = (
             exposed=Exposed(label="Shoot Level", option="--shoot-level")),
     Setting(name="threshold", kind=float, default=0.01, minimum=0.0, maximum=0.99,
             help="Stop when this fraction of the emitted power is left unshot (sunlight that "
-            "misses the scene does not count)",
+            "misses the scene does not count). At 0.01 the Cornell box at 160 texels per "
+            "metre takes 8,504 shots, relative RMS error against Cycles 1.4 %",
             exposed=Exposed(label="Threshold", option="--threshold", subtype='FACTOR',
                             digits=4)),
     Setting(name="max_shots", kind=int, default=10000, unit="shots", minimum=0,
