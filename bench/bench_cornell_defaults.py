@@ -50,6 +50,14 @@ def objects_of(samples):
     return objects
 
 
+def setting_value(name, text):
+    """A --variant value as its setting's kind: "0" and "false" are False for a switch."""
+    kind = type(getattr(Settings(), name))
+    if kind is bool:
+        return text.lower() not in ("0", "false", "no", "off")
+    return kind(text)
+
+
 def luxel_bake(scene, settings):
     start = time.perf_counter()
     with Solver(scene, settings) as solver:
@@ -81,9 +89,7 @@ def main():
     variants = {"defaults": {}}
     for text in args.variant:
         changes = dict(item.split("=") for item in text.split(","))
-        variants[text] = {name: type(getattr(Settings(), name))(int(value) if value.isdigit()
-                                                               else value)
-                          for name, value in changes.items()}
+        variants[text] = {name: setting_value(name, value) for name, value in changes.items()}
     runs = {}
     for name, changes in variants.items():
         runs[name] = luxel_bake(scene, Settings(texel_density=args.density, **changes))

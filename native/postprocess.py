@@ -41,12 +41,14 @@ class Ambient:
 
 @dataclass
 class ReflectedStart:
-    """The totals when the direct light was shot (Solver's ambient term measures the
-    reflected shots against them): what had been received (W, RGB, with the thin gaps'
-    correction) and shot (W, RGB), and per page each texel's irradiance (mean of RGB)."""
+    """The totals at a point after the direct light was shot (Solver's ambient term measures
+    the reflected shots since against them): what had been received (W, RGB, with the thin
+    gaps' correction) and shot (W, RGB), per page each texel's irradiance (mean of RGB), and
+    the unshot fraction then."""
     received: np.ndarray
     shot: np.ndarray
     irradiance: list
+    unshot_fraction: float
 
 
 def lightmaps(state, ambient):
@@ -82,13 +84,14 @@ def received_power(state, irradiance):
     return received
 
 
-def reflected_start(state, energy, irradiance, correction):
+def reflected_start(state, energy, irradiance, correction, unshot_fraction):
     """The ReflectedStart from the pages' ``irradiance`` maps now; ``correction`` (W) is the
     thin gaps' (what arrived less what their maps show)."""
     return ReflectedStart(received=received_power(state, irradiance) + correction,
                           shot=np.array(energy.shot_power, dtype=np.float64),
                           irradiance=[np.mean(image[..., :3], axis=-1)
-                                      for image in irradiance])
+                                      for image in irradiance],
+                          unshot_fraction=unshot_fraction)
 
 
 def ambient_term(state, energy, irradiance, correction, start):

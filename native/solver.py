@@ -133,10 +133,11 @@ class Solver:
         """The unshot light that has bounced at least once, as uniform radiance (Cohen et al.
         1988) on the texels it can reach: the share c of it that lands, spread over their
         area, times 1 / (1 - c * their mean albedo), the sum of its further bounces. Once the
-        direct light is shot, c is what the reflected shots since delivered over what they
-        shot, and the texels are those they reached (what a flat floor reflects into the open
-        escapes; a room sealed from the light stays dark); before, c is received / shot of
-        all shots, over every lit texel. Emission not yet shot (lights, emitting texels) is
+        direct light is shot, c is what the recent reflected shots delivered over what they
+        shot (since the unshot fraction was two to four times what it is), and the texels
+        are those they reached (what a flat floor reflects into the open escapes; a room
+        sealed from the light stays dark); before, c is received / shot of all shots, over
+        every lit texel. Emission not yet shot (lights, emitting texels) is
         left out: direct light is far from even, and it shoots first anyway. result() adds
         albedo times this when Settings.ambient is on."""
         with using(self.ctx):
@@ -144,8 +145,9 @@ class Solver:
                                   for page in self._state.pages]).radiance
 
     def _ambient(self, irradiance):
+        start = self._reflected_starts[0] if self._reflected_starts else None
         return postprocess.ambient_term(self._state, self._energy, irradiance,
-                                        self._gap_correction(), self._reflected_start)
+                                        self._gap_correction(), start)
 
     def _gap_correction(self):
         return self._gaps.arrived - self._gaps.shown_received
@@ -226,7 +228,9 @@ class Solver:
         state.points_vao = gl.vertex_array(state.programs["take"], [
             (state.points_vbo, "2f 4f", "in_texel", "in_taken")])
         self._queue = ShotQueue()
-        self._reflected_start = None   # postprocess.ReflectedStart, once direct light is shot
+        # postprocess.ReflectedStart: the latest two, from when the direct light was shot on,
+        # one more each time the unshot fraction halves.
+        self._reflected_starts = []
 
         self._measure_emission()
         lights = list(scene.lights) + receivers.sky_suns(scene.sky, settings.sky_directions)
@@ -272,19 +276,25 @@ class Solver:
         if queue.pending:
             queue.shots, queue.pending = queue.pending[:count], queue.pending[count:]
             return True
-        if self._reflected_start is None and self._direct_light_shot():
-            self._reflected_start = self._timed(
+        if self._reflected_start_due():
+            start = self._timed(
                 "selection", postprocess.reflected_start, self._state, energy,
                 [read_map(page.textures["irradiance"]) for page in self._state.pages],
-                self._gap_correction())
+                self._gap_correction(), self._unshot_fraction)
+            self._reflected_starts = self._reflected_starts[-1:] + [start]
         queue.shots = self._timed("selection", self._make_shooters, candidates, count)
         # The GPU's float sums saw power the texels do not hold.
         self.converged = not queue.shots
         return not self.converged
 
-    def _direct_light_shot(self):
-        """Whether the emission left unshot is within the threshold's share of all emitted
-        (the lights are shot before any patch)."""
+    def _reflected_start_due(self):
+        """Whether to keep a new ReflectedStart: once the emission left unshot is within the
+        threshold's share of all emitted (the lights are shot before any patch), then each
+        time the unshot fraction has halved. The ambient term measures from the older of the
+        latest two: the shots since then are much like those that will shoot what is left
+        (dimmer patches in corners, whose light lands more than the floor's did)."""
+        if self._reflected_starts:
+            return self._unshot_fraction <= 0.5 * self._reflected_starts[-1].unshot_fraction
         left = sum(float(np.mean(page.emission_left[1].sum(axis=0)))
                    for page in self._state.pages)
         return left <= self.settings.threshold * self._energy.emitted_scalar
