@@ -212,8 +212,8 @@ SETTINGS = (
             help="Add the light still unshot after its first bounce as even light where the "
             "reflected shots reach (an estimate of the unshot share it stands for): a closed "
             "room of albedo 0.99 within 1 % after 600 shots instead of thousands; an open "
-            "floor and a sealed room stay within 1 % of their truth. Costs one read of the "
-            "maps and a float per texel on the CPU",
+            "floor and a sealed room stay within 1 % of their truth. Costs a read of the maps "
+            "each time the unshot fraction halves and two floats per texel on the CPU",
             exposed=Exposed(label="Ambient Term", option="--ambient")),
     Setting(name="profile", kind=bool, default=False,
             help="Wait for the GPU after each phase for exact timings"),
