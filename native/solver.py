@@ -14,6 +14,7 @@ lightmap texel is rho * E / pi, the reflected diffuse radiance a Cycles DIFFUSE 
 selection, shooters, visibility, subdivision, receivers, thin_gaps, postprocess); they share
 the records of state.py. This module keeps the public API and the per-shot loop.
 """
+import dataclasses
 from dataclasses import dataclass
 import math
 import time
@@ -207,7 +208,7 @@ class Solver:
         self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
         self._memory_bytes = memory.memory_needed(state.packed, settings, state.map_size)
         memory.check_memory(state.packed, settings, self._memory_bytes,
-                            self._fits(state.packed), self._fits_at)
+                            self._fits(state.packed, state.map_size), self._fits_at)
 
         preprocess.create_gpu_state(state)   # programs, albedo textures, pages
         thin_gaps.set_constant_uniforms(state.programs["patch"])
@@ -248,13 +249,17 @@ class Solver:
         return build_atlas(self.scene, density, self.settings.max_atlas_size,
                            self.settings.padding, align=1 << self.settings.shoot_level)
 
-    def _fits(self, atlas):
-        return memory.fits(atlas, self.settings, self._state.map_size,
+    def _fits(self, atlas, map_size):
+        return memory.fits(atlas, self.settings, map_size,
                            self.ctx.info["GL_MAX_TEXTURE_SIZE"])
 
     def _fits_at(self, density):
         """Whether the packed atlas of ``density`` fits (memory's search for one that does)."""
-        return self._fits(tight_packing(self._chart(density), 1 << self.settings.shoot_level)[0])
+        # The automatic hemicube resolution follows the density too.
+        map_size = preprocess.visibility_map_size(
+            dataclasses.replace(self.settings, texel_density=density), self.scene)
+        return self._fits(tight_packing(self._chart(density), 1 << self.settings.shoot_level)[0],
+                          map_size)
 
     def _light_power(self, light):
         return receivers.light_power(light, self._state.bounds.radius)
