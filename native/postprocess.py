@@ -110,7 +110,8 @@ def ambient_term(state, energy, irradiance, correction, start):
     if start is not None and float(np.mean(shot - start.shot)) > 0:
         # Reflected light lands elsewhere than direct light (an open floor's escapes),
         # and only where reflected shots reach (not in a room sealed from them).
-        landed, shot = float(np.mean(received - start.received)), float(np.mean(shot - start.shot))
+        landed = float(np.mean(received - start.received))
+        shot = float(np.mean(shot - start.shot))
         brought = [np.mean(image[..., :3], axis=-1) - before
                    for image, before in zip(irradiance, start.irradiance)]
     else:

@@ -354,8 +354,7 @@ def measure_emission(state):
     in double precision; the receiving texels, and the blocks at the shooting level that hold
     texels (a mean block's share of the power, for selection.block_region). Keeps each
     page's areas, atlas layout and emitting texels."""
-    energy = Energy(emitted_maps=np.zeros(3), surface_area=0.0, albedo_area=np.zeros(3),
-                    texel_count=0, shooting_blocks=0)
+    energy = Energy(emitted_maps=np.zeros(3), texel_count=0, shooting_blocks=0)
     block = 1 << state.settings.shoot_level
     for page_index, page in enumerate(state.pages):
         area = read_map(page.textures["position"])[..., 3:4]
@@ -368,10 +367,6 @@ def measure_emission(state):
         material = read_map(page.textures["material"])
         receives = material[..., 3]
         page.area = np.ascontiguousarray(area[..., 0])
-        energy.surface_area += float(area.sum(dtype=np.float64))
-        energy.albedo_area = energy.albedo_area + (
-            material[..., :3] * (receives[..., None] > 0) * area).reshape(-1, 3).sum(
-            axis=0, dtype=np.float64)
         page.to_atlas = _atlas_texels(state, page_index, area[..., 0] > 0)
         power = math.pi * (emission * area).reshape(-1, 3).astype(np.float64)
         energy.emitted_maps += power.sum(axis=0)
