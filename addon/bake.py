@@ -183,7 +183,8 @@ class BakeJob:
 
     def _export(self):
         self.export = yield from self._exporting
-        self.warnings.extend(self.export.warnings)
+        # The later stages (materials, charting) add theirs to the export's, as it reports them.
+        self.warnings = self.export.warnings
         if not self.export.receivers:
             raise SceneError("no object gets a lightmap: enable 'Receive Lightmap' on a "
                              "visible mesh (Object properties > Luxel)")

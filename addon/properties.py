@@ -70,7 +70,7 @@ def _solver_property(setting):
     if setting.kind is str:
         return EnumProperty(items=[(choice.identifier, choice.label, choice.help)
                                    for choice in setting.choices], **common)
-    limits = {key: value for key, value in (("min", setting.minimum), ("max", setting.maximum),
+    limits = {key: value for key, value in (("min", setting.lowest), ("max", setting.maximum),
                                             ("soft_max", setting.soft_maximum))
               if value is not None}
     if setting.kind is int:

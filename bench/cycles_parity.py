@@ -33,12 +33,13 @@ def luxel_scene(two_sided):
     return scene
 
 
-def cycles_bake(scene, atlas, samples, bounces, two_sided):
+def cycles_bake(scene, atlas, samples, bounces, two_sided, seed=0):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     blender = bpy.context.scene
     blender.render.engine = "CYCLES"
     blender.cycles.device = "CPU"
     blender.cycles.samples = samples
+    blender.cycles.seed = seed
     blender.cycles.use_adaptive_sampling = False
     blender.cycles.use_denoising = False
     blender.cycles.max_bounces = bounces

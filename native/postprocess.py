@@ -11,6 +11,10 @@ from .state import decode_normals, in_atlas_layout, read_map
 
 # The ambient term's mean albedo stays under this: two albedos of 1 would bounce for ever.
 MAX_MEAN_ALBEDO = 0.999
+# A texel the bounced light reached with less than this share of the mean irradiance it
+# brought gets the ambient term in proportion: the little that leaks past a wall's edge into
+# a sealed room does not carry the lit room's ambient light with it.
+FULLY_REACHED_SHARE = 0.01
 
 
 @dataclass
@@ -27,19 +31,40 @@ class Ledger:
         return float(np.max(np.abs(residual) / np.maximum(self.emitted, 1e-30)))
 
 
+@dataclass
+class Ambient:
+    """The ambient term: a uniform radiance (RGB) on the texels the bounced light has
+    reached, per page an (H, W) float32 weight in [0, 1] (how far it reached each texel)."""
+    radiance: np.ndarray
+    reached: list
+
+
+@dataclass
+class ReflectedStart:
+    """The totals at a point after the direct light was shot (Solver's ambient term measures
+    the reflected shots since against them): what had been received (W, RGB, with the thin
+    gaps' correction) and shot (W, RGB), per page each texel's irradiance (mean of RGB), and
+    the unshot fraction then."""
+    received: np.ndarray
+    shot: np.ndarray
+    irradiance: list
+    unshot_fraction: float
+
+
 def lightmaps(state, ambient):
     """Per page: rho * (E / pi + ambient) on receiving texels, alpha 1, and the gutter
     filled, on the CPU from the maps it reads anyway (no output maps on the GPU).
-    ``ambient(irradiance)`` gives the ambient radiance from the pages' irradiance maps, or
-    None to leave it out."""
+    ``ambient(irradiance)`` gives the Ambient from the pages' irradiance maps, or None to
+    leave it out."""
     # Whole RGBA rows are contiguous (fast); the irradiance's alpha is 0 throughout.
     irradiance = [read_map(page.textures["irradiance"]) for page in state.pages]
-    radiance = ambient(irradiance) if ambient is not None else np.zeros(3)
+    term = ambient(irradiance) if ambient is not None else None
     pages = []
-    for page, image in zip(state.pages, irradiance):
+    for index, (page, image) in enumerate(zip(state.pages, irradiance)):
         occupied = read_map(page.textures["material"])[..., 3] > 0   # a receiving texel
         image *= np.float32(1.0 / math.pi)
-        image += np.append(radiance, 0.0).astype(np.float32)
+        if term is not None:
+            image[..., :3] += term.reached[index][..., None] * term.radiance.astype(np.float32)
         image[..., :3] *= page.albedo
         image *= occupied[..., None]
         image[..., 3] = occupied
@@ -49,25 +74,71 @@ def lightmaps(state, ambient):
     return pages
 
 
-def ambient_radiance(state, energy, irradiance, received):
+def received_power(state, irradiance):
+    """What the pages' ``irradiance`` maps show was received (W, RGB): one product per page
+    (an estimate needs no double-precision sums; the ledger's are)."""
+    received = np.zeros(3)
+    for page, page_irradiance in zip(state.pages, irradiance):
+        received = received + (page_irradiance.reshape(-1, 4).T @ page.area.reshape(-1))[:3]
+    return received
+
+
+def reflected_start(state, energy, irradiance, correction, unshot_fraction):
+    """The ReflectedStart from the pages' ``irradiance`` maps now; ``correction`` (W) is the
+    thin gaps' (what arrived less what their maps show)."""
+    return ReflectedStart(received=received_power(state, irradiance) + correction,
+                          shot=np.array(energy.shot_power, dtype=np.float64),
+                          irradiance=[np.mean(image[..., :3], axis=-1)
+                                      for image in irradiance],
+                          unshot_fraction=unshot_fraction)
+
+
+def ambient_term(state, energy, irradiance, correction, start):
     """The unshot light that has bounced at least once as uniform radiance (Solver.
     ambient_radiance), from the pages' ``irradiance`` maps and their unshot maps;
-    ``received`` (W) starts the sum of what was received (the thin gaps' correction)."""
+    ``correction`` (W) is the thin gaps' (what arrived less what their maps show), ``start``
+    the ReflectedStart or None while direct light is still being shot."""
+    received = received_power(state, irradiance) + correction
     unshot = np.zeros(3)
-    for page, page_irradiance in zip(state.pages, irradiance):
-        # Whole RGBA rows times the areas: one product each (an estimate needs no
-        # double-precision sums; the ledger's are).
-        area = page.area.reshape(-1)
-        received = received + (page_irradiance.reshape(-1, 4).T @ area)[:3]
+    for page in state.pages:
         unshot = unshot + math.pi * (read_map(page.textures["unshot"]).reshape(-1, 4).T
-                                     @ area)[:3]
+                                     @ page.area.reshape(-1))[:3]
         unshot = unshot - page.emission_left[1].sum(axis=0)   # direct light, unshot
     bounced = np.maximum(unshot, 0.0)
-    shot = float(np.mean(energy.shot_power)) - energy.sunlight_missed
-    lands = min(float(np.mean(received)) / shot, 1.0) if shot > 0 else 1.0
-    area = max(energy.surface_area, 1e-30)
-    mean_albedo = np.minimum(energy.albedo_area / area, MAX_MEAN_ALBEDO)
-    return lands * bounced / (math.pi * area) / (1.0 - lands * mean_albedo)
+    shot = np.array(energy.shot_power, dtype=np.float64)
+    if start is not None and float(np.mean(shot - start.shot)) > 0:
+        # Reflected light lands elsewhere than direct light (an open floor's escapes),
+        # and only where reflected shots reach (not in a room sealed from them).
+        landed = float(np.mean(received - start.received))
+        shot = float(np.mean(shot - start.shot))
+        brought = [np.mean(image[..., :3], axis=-1) - before
+                   for image, before in zip(irradiance, start.irradiance)]
+    else:
+        landed, shot = float(np.mean(received)), float(np.mean(shot)) - energy.sunlight_missed
+        brought = [np.mean(image[..., :3], axis=-1) for image in irradiance]
+    lands = min(max(landed, 0.0) / shot, 1.0) if shot > 0 else 1.0
+    materials = [read_map(page.textures["material"]) for page in state.pages]
+    receiving = [material[..., 3] > 0 for material in materials]
+    brought_sum = sum(float((page.area * np.maximum(page_brought, 0) * page_receiving).sum())
+                      for page, page_brought, page_receiving in zip(state.pages, brought,
+                                                                    receiving))
+    receiving_area = sum(float((page.area * page_receiving).sum())
+                         for page, page_receiving in zip(state.pages, receiving))
+    full = FULLY_REACHED_SHARE * brought_sum / max(receiving_area, 1e-30)
+    reached = [np.clip(page_brought / full, 0.0, 1.0).astype(np.float32) * page_receiving
+               if full > 0 else np.zeros_like(page_brought)
+               for page_brought, page_receiving in zip(brought, receiving)]
+    area, albedo_area = 0.0, np.zeros(3)
+    for page, material, page_reached in zip(state.pages, materials, reached):
+        weights = page.area * page_reached
+        area += float(weights.sum(dtype=np.float64))
+        albedo_area = albedo_area + (material[..., :3].reshape(-1, 3).T
+                                     @ weights.reshape(-1)).astype(np.float64)
+    if area <= 0:
+        return Ambient(radiance=np.zeros(3), reached=reached)
+    mean_albedo = np.minimum(albedo_area / area, MAX_MEAN_ALBEDO)
+    return Ambient(radiance=lands * bounced / (math.pi * area) / (1.0 - lands * mean_albedo),
+                   reached=reached)
 
 
 def texel_samples(state):

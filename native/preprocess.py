@@ -41,6 +41,9 @@ BEND_DIRECTION_SINE = math.sin(math.radians(1.0))
 SELECTION_REGIONS = 1024
 # Hemisphere maps are twice the hemicube's side: the same texels per radian at the zenith.
 HEMISPHERE_MAP_SCALE = 2
+# The automatic hemicube resolution's least and most: the old fixed default, and where its
+# visibility map (24 B a texel) and render time stay small beside the atlas's (README).
+AUTOMATIC_HEMICUBE = (128, 512)
 
 
 @dataclass
@@ -58,9 +61,23 @@ def bounds_of(scene):
     return Bounds(centre=0.5 * (lo + hi), radius=radius, epsilon=EPSILON_SHARE * radius)
 
 
-def visibility_map_size(settings):
-    return settings.hemicube_resolution * (1 if settings.projection == "HEMICUBE"
-                                           else HEMISPHERE_MAP_SCALE)
+def hemicube_resolution(settings, scene):
+    """Settings.hemicube_resolution, or where it is 0 (automatic) the least power of two
+    at which a texel half the scene's diagonal away from a shooter covers a texel of a face
+    at its middle (a face texel there spans 2 / resolution radians), kept within
+    AUTOMATIC_HEMICUBE (its memory and time, README)."""
+    if settings.hemicube_resolution:
+        return settings.hemicube_resolution
+    lo, hi = scene.bounds()
+    typical_distance = 0.5 * float(np.linalg.norm(hi - lo))
+    needed = max(2.0 * typical_distance * settings.texel_density, 1.0)
+    least, most = AUTOMATIC_HEMICUBE
+    return int(min(max(2 ** math.ceil(math.log2(needed)), least), most))
+
+
+def visibility_map_size(settings, scene):
+    return hemicube_resolution(settings, scene) * (1 if settings.projection == "HEMICUBE"
+                                                   else HEMISPHERE_MAP_SCALE)
 
 
 def number_surfaces(scene):
@@ -355,8 +372,7 @@ def measure_emission(state):
     in double precision; the receiving texels, and the blocks at the shooting level that hold
     texels (a mean block's share of the power, for selection.block_region). Keeps each
     page's areas, atlas layout and emitting texels."""
-    energy = Energy(emitted_maps=np.zeros(3), surface_area=0.0, albedo_area=np.zeros(3),
-                    texel_count=0, shooting_blocks=0)
+    energy = Energy(emitted_maps=np.zeros(3), texel_count=0, shooting_blocks=0)
     block = 1 << state.settings.shoot_level
     for page_index, page in enumerate(state.pages):
         area = read_map(page.textures["position"])[..., 3:4]
@@ -369,10 +385,6 @@ def measure_emission(state):
         material = read_map(page.textures["material"])
         receives = material[..., 3]
         page.area = np.ascontiguousarray(area[..., 0])
-        energy.surface_area += float(area.sum(dtype=np.float64))
-        energy.albedo_area = energy.albedo_area + (
-            material[..., :3] * (receives[..., None] > 0) * area).reshape(-1, 3).sum(
-            axis=0, dtype=np.float64)
         page.to_atlas = _atlas_texels(state, page_index, area[..., 0] > 0)
         power = math.pi * (emission * area).reshape(-1, 3).astype(np.float64)
         energy.emitted_maps += power.sum(axis=0)

@@ -19,6 +19,7 @@ diffuse albedo (kept on the CPU), the reflected diffuse radiance a Cycles DIFFUS
 selection, shooters, visibility, subdivision, receivers, thin_gaps, postprocess); they share
 the records of state.py. This module keeps the public API and the per-shot loop.
 """
+import dataclasses
 from dataclasses import dataclass
 import math
 import time
@@ -78,8 +79,9 @@ def lightmap_atlas(scene, settings):
 
     def fits_at(density):
         packed = tight_packing(_chart(scene, settings, density), 1 << settings.shoot_level)[0]
-        needed = memory.memory_needed(packed, settings,
-                                      preprocess.visibility_map_size(settings))
+        map_size = preprocess.visibility_map_size(
+            dataclasses.replace(settings, texel_density=density), scene)
+        needed = memory.memory_needed(packed, settings, map_size)
         return needed <= settings.memory_limit
 
     memory.check_surface_fits(scene, settings, fits_at)
@@ -206,18 +208,26 @@ class Solver:
 
     def ambient_radiance(self):
         """The unshot light that has bounced at least once, as uniform radiance (Cohen et al.
-        1988): the share c of it that lands (c = received / shot so far: 1 in a closed
-        room), spread over the area, times 1 / (1 - c * mean albedo), the sum of its further
-        bounces. Emission not yet shot (lights, emitting texels) is left out: direct light
-        is far from even, and it shoots first anyway. result() adds albedo times this when
-        Settings.ambient is on."""
+        1988) on the texels it can reach: the share c of it that lands, spread over their
+        area, times 1 / (1 - c * their mean albedo), the sum of its further bounces. Once the
+        direct light is shot, c is what the recent reflected shots delivered over what they
+        shot (since the unshot fraction was two to four times what it is), and the texels
+        are those they reached (what a flat floor reflects into the open escapes; a room
+        sealed from the light stays dark); before, c is received / shot of all shots, over
+        every lit texel. Emission not yet shot (lights, emitting texels) is
+        left out: direct light is far from even, and it shoots first anyway. result() adds
+        albedo times this when Settings.ambient is on."""
         with using(self.ctx):
             return self._ambient([read_map(page.textures["irradiance"])
-                                  for page in self._state.pages])
+                                  for page in self._state.pages]).radiance
 
     def _ambient(self, irradiance):
-        return postprocess.ambient_radiance(self._state, self._energy, irradiance,
-                                            self._gaps.arrived - self._gaps.shown_received)
+        start = self._reflected_starts[0] if self._reflected_starts else None
+        return postprocess.ambient_term(self._state, self._energy, irradiance,
+                                        self._gap_correction(), start)
+
+    def _gap_correction(self):
+        return self._gaps.arrived - self._gaps.shown_received
 
     def release(self):
         """Release every GL object (and the context, if the solver made it). Idempotent."""
@@ -274,7 +284,8 @@ class Solver:
         surfaces, emitting_surfaces = preprocess.number_surfaces(scene)
         state = self._state = BakeState(
             ctx=self.ctx, gl=gl, scene=scene, settings=settings,
-            bounds=preprocess.bounds_of(scene), map_size=preprocess.visibility_map_size(settings),
+            bounds=preprocess.bounds_of(scene),
+            map_size=preprocess.visibility_map_size(settings, scene),
             surfaces=surfaces, emitting_surfaces=emitting_surfaces)
         memory.check_surface_fits(scene, settings, self._fits_at)
         started = time.perf_counter()
@@ -284,7 +295,7 @@ class Solver:
         self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
         self._memory_bytes = memory.memory_needed(state.packed, settings, state.map_size)
         memory.check_memory(state.packed, settings, self._memory_bytes,
-                            self._fits(state.packed), self._fits_at)
+                            self._fits(state.packed, state.map_size), self._fits_at)
         yield self._preprocessing(0)
 
         preprocess.create_gpu_state(state)   # programs, albedo textures, pages
@@ -310,6 +321,9 @@ class Solver:
         state.points_vao = gl.vertex_array(state.programs["take"], [
             (state.points_vbo, "2f 4f", "in_texel", "in_taken")])
         self._queue = ShotQueue()
+        # postprocess.ReflectedStart: the latest two, from when the direct light was shot on,
+        # one more each time the unshot fraction halves.
+        self._reflected_starts = []
         yield self._preprocessing(3)
 
         self._measure_emission()
@@ -331,14 +345,17 @@ class Solver:
     def _measure_emission(self):
         self._energy = preprocess.measure_emission(self._state)
 
-    def _fits(self, atlas):
-        return memory.fits(atlas, self.settings, self._state.map_size,
+    def _fits(self, atlas, map_size):
+        return memory.fits(atlas, self.settings, map_size,
                            self.ctx.info["GL_MAX_TEXTURE_SIZE"])
 
     def _fits_at(self, density):
         """Whether the packed atlas of ``density`` fits (memory's search for one that does)."""
+        # The automatic hemicube resolution follows the density too.
+        map_size = preprocess.visibility_map_size(
+            dataclasses.replace(self.settings, texel_density=density), self.scene)
         return self._fits(tight_packing(_chart(self.scene, self.settings, density),
-                                        1 << self.settings.shoot_level)[0])
+                                        1 << self.settings.shoot_level)[0], map_size)
 
     def _light_power(self, light):
         return receivers.light_power(light, self._state.bounds.radius)
@@ -355,6 +372,12 @@ class Solver:
         if queue.pending:
             queue.shots, queue.pending = queue.pending[:count], queue.pending[count:]
             return True
+        if self._reflected_start_due():
+            start = self._timed(
+                "selection", postprocess.reflected_start, self._state, self._energy,
+                [read_map(page.textures["irradiance"]) for page in self._state.pages],
+                self._gap_correction(), self._unshot_fraction)
+            self._reflected_starts = self._reflected_starts[-1:] + [start]
         queue.shots = self._timed("selection", self._make_shooters, candidates, count)
         # The GPU's float sums saw power the texels do not hold.
         self.converged = not queue.shots
@@ -371,6 +394,18 @@ class Solver:
         self.converged = (self._unshot_fraction <= self.settings.threshold
                           or (not queue.pending and not candidates))
         return candidates
+
+    def _reflected_start_due(self):
+        """Whether to keep a new ReflectedStart: once the emission left unshot is within the
+        threshold's share of all emitted (the lights are shot before any patch), then each
+        time the unshot fraction has halved. The ambient term measures from the older of the
+        latest two: the shots since then are much like those that will shoot what is left
+        (dimmer patches in corners, whose light lands more than the floor's did)."""
+        if self._reflected_starts:
+            return self._unshot_fraction <= 0.5 * self._reflected_starts[-1].unshot_fraction
+        left = sum(float(np.mean(page.emission_left[1].sum(axis=0)))
+                   for page in self._state.pages)
+        return left <= self.settings.threshold * self._energy.emitted_scalar
 
     def _make_shooters(self, candidates, count):
         """Shooters of up to ``count`` candidate blocks (or of their finer parts), strongest

@@ -81,8 +81,6 @@ class BakeState:
 class Energy:
     """Power totals (W, RGB, double precision) and the texel counts the stages measure by."""
     emitted_maps: np.ndarray    # what the emitting texels hold
-    surface_area: float         # m^2, all texels
-    albedo_area: np.ndarray     # receiving texels' albedo times area
     texel_count: int            # receiving texels
     shooting_blocks: int        # blocks at the shooting level holding texels
     emitted: np.ndarray = None  # the texels' and the lights'

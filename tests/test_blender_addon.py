@@ -441,8 +441,8 @@ def test_the_scene_properties_are_the_declared_settings():
         # Blender's limits where none is given: INT_MIN, INT_MAX or -FLT_MAX, FLT_MAX.
         unbounded = (2**31 - 1 if setting.kind is int else
                      float(np.finfo(np.float32).max))
-        assert prop.hard_min == (-unbounded - (setting.kind is int) if setting.minimum is None
-                                 else as_stored(setting.minimum)), setting.name
+        assert prop.hard_min == (-unbounded - (setting.kind is int) if setting.lowest is None
+                                 else as_stored(setting.lowest)), setting.name
         assert prop.hard_max == (unbounded if setting.maximum is None else
                                  as_stored(setting.maximum)), setting.name
         if setting.soft_maximum is not None:

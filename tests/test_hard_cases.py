@@ -294,7 +294,8 @@ def test_furnace_of_albedo_0_99_with_the_ambient_term(ctx, gl_clean, projection)
 
 def test_the_ambient_term_is_the_bounced_light_that_lands(ctx, gl_clean):
     """A square plate of side a under a point light at height h, in the open. Before any
-    shot all unshot light is direct: no ambient term. After the light's shot the plate holds
+    shot all unshot light is direct: no ambient term. After the light's shot (and before any
+    reflected shot, whose share would replace it) the plate holds
     rho P Omega / (4 pi) unshot (Omega, the plate's solid angle from the light:
     4 asin(a^2 / (a^2 + 4 h^2))), and the share that lands of what is shot, as the light's
     shot showed, is Omega / (4 pi): the ambient radiance is that share of the bounced power

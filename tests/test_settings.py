@@ -44,6 +44,8 @@ def probes(setting):
         if bound is not None:
             found += [(bound, True), (as_blender_holds(setting, bound), True),
                       (beside(setting, bound, direction), False)]
+    if setting.automatic is not None:
+        found += [(setting.automatic, True)]
     if setting.choices:
         found += [(choice.identifier, True) for choice in setting.choices]
         found += [(setting.choices[0].identifier.lower(), False), ("NO_SUCH_CHOICE", False)]
@@ -81,8 +83,8 @@ def refusal(settings):
 # README): the declaration is held against this, so that a slip in it shows.
 INTENDED = {   # name: (default, minimum, maximum)
     "texel_density": (20.0, 0.01, None), "max_atlas_size": (4096, 16, None),
-    "padding": (2, 1, None), "hemicube_resolution": (128, 8, 4096), "shoot_level": (2, 0, 6),
-    "threshold": (0.01, 0.0, 0.99), "max_shots": (0, 0, 2**31 - 1),
+    "padding": (2, 1, None), "hemicube_resolution": (0, 8, 4096), "shoot_level": (2, 0, 6),
+    "threshold": (0.01, 0.0, 0.99), "max_shots": (0, 1, 2**31 - 1),
     "memory_limit": (4 << 30, 1, None), "sky_directions": (256, 1, 65536),
     "projection": ("HEMICUBE", None, None), "neighbour_visibility": (True, None, None),
     "subdivision": ("NONE", None, None), "subdivision_level": (2, 0, 3),
