@@ -76,13 +76,14 @@ class BakeJob:
     def step(self, seconds=0.1):
         """Work for about ``seconds``, a piece or a shot at least: the set-up's next pieces,
         then shots. True when the bake has converged or hit max shots. A piece cannot be cut
-        short (the charting is one call to xatlas), and a step ends where a stage ends, so
-        that the status names each stage before it runs."""
+        short (the charting is one call to xatlas), and a step ends where a stage ends (the last
+        one too), so that the status names each stage before it runs."""
         deadline = time.perf_counter() + seconds
         stage = self.set_up_progress.stage
         while not self.is_set_up:
             self._set_up_step()
-            if self.set_up_progress.stage != stage or time.perf_counter() >= deadline:
+            if (self.is_set_up or self.set_up_progress.stage != stage
+                    or time.perf_counter() >= deadline):
                 return False
         with _failures_named("the GPU solver", GPU_FIX):
             while self.solver.step() and time.perf_counter() < deadline:

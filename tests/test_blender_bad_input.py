@@ -516,7 +516,8 @@ def test_the_modal_bake_names_each_set_up_stage_and_its_progress_moves_forward(
         assert driver.event('TIMER') == {'RUNNING_MODAL'}
     assert driver.event('ESC') == {'CANCELLED'}
     named = [stage for stage, _ in itertools.groupby(stage for stage, _ in stages)]
-    assert named == ["exporting the scene", "starting the GPU solver", "charting",
+    assert named == ["exporting the scene", "evaluating the materials with Cycles",
+                     "starting the GPU solver", "charting",
                      "preprocessing"]
     assert driver.progress == sorted(driver.progress) and driver.progress[-1] > 0
     first = {stage: value for stage, value in reversed(stages)}

@@ -44,7 +44,8 @@ def probes(setting):
         if bound is not None:
             found += [(bound, True), (as_blender_holds(setting, bound), True),
                       (beside(setting, bound, direction), False)]
-    if setting.automatic is not None:
+    if setting.automatic is not None:   # taken, also where it lies next to a bound
+        found = [(value, valid) for value, valid in found if value != setting.automatic]
         found += [(setting.automatic, True)]
     if setting.choices:
         found += [(choice.identifier, True) for choice in setting.choices]
