@@ -46,6 +46,7 @@ OVERLAP_BATCH = 1 << 22     # grid centres overlapping_faces tests at once (memo
 SNAP_TEXELS = 1e-3       # a UV corner this close to a texel edge lies on it
 MIN_XATLAS_AREA = 1e-3   # smallest triangle area handed to xatlas, in its units
 MAX_XATLAS_EXTENT = 1e6  # largest scene size handed to xatlas, in its units
+XATLAS_PIECE_TRIANGLES = 8192   # most triangles xatlas charts as one mesh (_pieces)
 _cache = OrderedDict()
 # xatlas can deadlock when an atlas is destroyed right after generate(): its destructor wakes
 # the worker threads without taking their lock, so a worker still on its way back to sleep
@@ -170,7 +171,10 @@ class _Layout:
 def _chart_layout(scene, members, units, density, max_size, padding):
     """xatlas charts one object's triangles and packs them on one page of at most
     ``max_size`` (less the padding after it); a mesh too large for it is charted coarser
-    until it fits."""
+    until it fits. Back-face copies are a mesh of their own: on their originals' surface,
+    xatlas would join the two sheets at their shared corners into one tangle of an edge
+    between four faces, cut into hundreds of charts packed for seconds. Large meshes go to
+    xatlas in pieces (_pieces)."""
     chart_options = xatlas.ChartOptions()
     pack_options = xatlas.PackOptions()
     pack_options.padding = int(padding)
@@ -178,9 +182,13 @@ def _chart_layout(scene, members, units, density, max_size, padding):
     pack_options.max_chart_size = int(max_size - 2 * padding - 2)
     fits = max_size - padding
     texels_per_unit = float(density) / units
+    back = (np.zeros(len(members), bool) if scene.back_of is None
+            else scene.back_of[members] >= 0)
+    meshes = [piece for rows in (np.nonzero(~back)[0], np.nonzero(back)[0]) if len(rows)
+              for piece in _pieces(scene, members, rows)]
     for _ in range(8):
         pack_options.texels_per_unit = texels_per_unit
-        atlas = _atlas_of(scene, [members], units)
+        atlas = _atlas_of(scene, [members[rows] for rows in meshes], units)
         _generate(atlas, chart_options, pack_options)
         if max(atlas.width, atlas.height) <= fits and atlas.atlas_count <= 1:
             break
@@ -189,17 +197,22 @@ def _chart_layout(scene, members, units, density, max_size, padding):
         raise SettingsError(f"object '{scene.object_name(members[0])}' does not fit one "
                             f"{max_size}-texel lightmap page: lower the texel density")
     width, height = int(atlas.width), int(atlas.height)
-    _, indices, uvs = atlas[0]
-    corners = indices.reshape(-1, 3)
-    pages, _ = atlas.get_mesh_vertex_assignment(0)
-    # xatlas puts texel centres on integer + 0.5 coordinates of its charts; shifting by
-    # half a texel makes a chart of whole texels cover whole texels.
-    texels = uvs[corners].astype(np.float64) * [width, height] - 0.5
-    page = pages[corners[:, 0]].astype(np.int64)
+    texels = np.zeros((len(members), 3, 2))
+    page = np.zeros(len(members), dtype=np.int64)
     chart = np.full(len(members), -1, dtype=np.int64)
-    chart_count = atlas.get_mesh_chart_count(0)
-    for index in range(chart_count):
-        chart[atlas.get_mesh_chart(0, index).faces.astype(np.int64)] = index
+    chart_count = 0
+    for mesh, rows in enumerate(meshes):
+        _, indices, uvs = atlas[mesh]
+        corners = indices.reshape(-1, 3)
+        pages, _ = atlas.get_mesh_vertex_assignment(mesh)
+        # xatlas puts texel centres on integer + 0.5 coordinates of its charts; shifting by
+        # half a texel makes a chart of whole texels cover whole texels.
+        texels[rows] = uvs[corners].astype(np.float64) * [width, height] - 0.5
+        page[rows] = pages[corners[:, 0]]
+        for index in range(atlas.get_mesh_chart_count(mesh)):
+            chart[rows[atlas.get_mesh_chart(mesh, index).faces.astype(np.int64)]] = (
+                chart_count + index)
+        chart_count += atlas.get_mesh_chart_count(mesh)
     _keep_faces_in_one_chart(scene, members, texels, page, chart, (width, height), 1)
     # ... up to the rounding of xatlas's single-float UVs: snapped, so that a chart's edge
     # claims no sliver of the next texel (a texel of its own, of 1e-6 of its area).
@@ -211,6 +224,39 @@ def _chart_layout(scene, members, units, density, max_size, padding):
         width = height = 0
     return _Layout(texels, chart, packed, np.array([width, height], dtype=np.int64),
                    chart_count, texels_per_unit < float(density) / units)
+
+
+def _pieces(scene, members, rows):
+    """``rows`` (of ``members``) cut into pieces of at most XATLAS_PIECE_TRIANGLES, each
+    a mesh of its own for xatlas: halves by the median along the longest side of their
+    centres, recursively, a face's triangles (Scene.polygon) always in one piece. xatlas
+    checks a growing chart's whole boundary at each face it adds, a time that grows faster
+    than the chart's faces (a smooth, finely subdivided sofa: a few huge charts); pieces
+    bound it, and xatlas charts them on all cores, at the cost of a few more charts."""
+    if len(rows) <= XATLAS_PIECE_TRIANGLES:
+        return [rows]
+    triangles = members[rows]
+    polygon = scene.polygon[triangles]
+    face = np.where(polygon >= 0, polygon, -1 - np.arange(len(rows)))  # loose triangles alone
+    _, group = np.unique(face, return_inverse=True)
+    centre = scene.vertices[scene.triangles[triangles]].mean(axis=1)
+    face_centre = np.zeros((group.max() + 1, 3))
+    np.add.at(face_centre, group, centre)
+    centre = face_centre[group] / np.bincount(group)[group, None]
+    pieces, pending = [], [np.arange(len(rows))]
+    while pending:
+        part = pending.pop()
+        if len(part) <= XATLAS_PIECE_TRIANGLES:
+            pieces.append(np.sort(rows[part]))
+            continue
+        axis = int(np.argmax(np.ptp(centre[part], axis=0)))
+        part = part[np.lexsort((group[part], centre[part, axis]))]
+        cut = len(part) // 2
+        while cut < len(part) and group[part[cut]] == group[part[cut - 1]]:
+            cut += 1
+        pending += [part[:cut], part[cut:]] if cut < len(part) else [part[:len(part) // 2],
+                                                                   part[len(part) // 2:]]
+    return pieces
 
 
 def _given_layout(scene, members, units, density, max_size, padding):
