@@ -1,6 +1,5 @@
 """Lightmap atlas: xatlas charts the receiving and emitting triangles at a texel density and
 packs them onto one or more pages. Texels follow surface area, not triangle count."""
-from collections import OrderedDict
 from dataclasses import dataclass, replace
 import hashlib
 import math
@@ -35,9 +34,11 @@ class Atlas:
         return self.texels / np.array([self.width, self.height], dtype=np.float64)
 
 
-# Re-bakes of unchanged geometry (new lights, materials, settings) reuse their atlas: xatlas
-# takes seconds on scenes of tens of thousands of triangles.
-CACHED_ATLASES = 4
+# Re-bakes reuse the layout of each mesh whose geometry did not change (new lights,
+# materials, settings, another object moved), and objects of one shape (linked duplicates
+# with their own modifiers, moved copies) share one: xatlas takes seconds per ten thousand
+# triangles. The cache forgets its oldest layouts past this many triangles in all.
+CACHED_LAYOUT_TRIANGLES = 3_000_000
 # tight_packing keeps the atlas's layout unless its pages would shrink to this share or less.
 TIGHT_PACKING_GAIN = 0.75
 OVERLAP_RESOLUTION = 1024   # grid overlapping_faces tests a UV map's [0, 1] square on
@@ -47,7 +48,10 @@ SNAP_TEXELS = 1e-3       # a UV corner this close to a texel edge lies on it
 MIN_XATLAS_AREA = 1e-3   # smallest triangle area handed to xatlas, in its units
 MAX_XATLAS_EXTENT = 1e6  # largest scene size handed to xatlas, in its units
 XATLAS_PIECE_TRIANGLES = 8192   # most triangles xatlas charts as one mesh (_pieces)
-_cache = OrderedDict()
+# Meshes whose corners (from the corner of their box) agree to this share of the box's
+# size share a layout: a moved copy's corners differ in their last bits.
+LAYOUT_TOLERANCE = 1e-6
+_layouts = []   # _CachedLayout, the latest used last
 # xatlas can deadlock when an atlas is destroyed right after generate(): its destructor wakes
 # the worker threads without taking their lock, so a worker still on its way back to sleep
 # misses the wake-up and the destructor joins it forever (seen here as a test run hanging
@@ -75,15 +79,7 @@ def build_atlas(scene, density, max_size=4096, padding=2, charted=None, align=1)
     if len(chosen) == 0:
         raise SettingsError("no triangle receives a lightmap: enable 'receive' on an object")
 
-    key = _cache_key(scene, chosen, density, max_size, padding) + (int(align),)
-    if key in _cache:
-        _cache.move_to_end(key)
-        return _copy(_cache[key])
-    result = _build(scene, chosen, density, max_size, padding, align)
-    _cache[key] = _copy(result)
-    while len(_cache) > CACHED_ATLASES:
-        _cache.popitem(last=False)
-    return result
+    return _build(scene, chosen, density, max_size, padding, align)
 
 
 def charted_triangles(scene):
@@ -92,8 +88,8 @@ def charted_triangles(scene):
 
 
 def clear_cache():
-    """Forget the cached atlases (benchmarks time xatlas every time)."""
-    _cache.clear()
+    """Forget the cached layouts (benchmarks time xatlas every time)."""
+    _layouts.clear()
 
 
 def _build(scene, chosen, density, max_size, padding, align):
@@ -115,10 +111,8 @@ def _build(scene, chosen, density, max_size, padding, align):
                     f"objects '{scene.object_names[obj]}' and "
                     f"'{scene.object_names[largest]}' share a layout but chart "
                     f"{len(of_object[obj])} and {len(of_object[largest])} triangles")
-        given = scene.lightmap_uv is not None and np.isfinite(
-            scene.lightmap_uv[of_object[largest]]).all()
-        layouts[layout] = (_given_layout if given else _chart_layout)(
-            scene, of_object[largest], units, density, max_size - align, padding)
+        layouts[layout] = _layout_of(scene, of_object[largest], units, density,
+                                     max_size - align, padding)
 
     placed = [obj for obj in of_object if layouts[int(scene.object_layout[obj])].size.min() > 0]
     sizes = {obj: -(-(layouts[int(scene.object_layout[obj])].size + padding) // align) * align
@@ -154,6 +148,53 @@ def _build(scene, chosen, density, max_size, padding, align):
                  object_origin=object_origin, object_offset=object_offset,
                  shrunk=sorted(obj for obj in of_object
                                if layouts[int(scene.object_layout[obj])].shrunk))
+
+
+def _layout_of(scene, members, units, density, max_size, padding):
+    """One mesh's layout: its own lightmap UVs or xatlas's charts, from the cache where a
+    mesh of the same shape (up to where it stands) was laid out at the same settings."""
+    given = scene.lightmap_uv is not None and np.isfinite(scene.lightmap_uv[members]).all()
+    key = _layout_key(scene, members, units, density, max_size, padding)
+    corners = scene.vertices[scene.triangles[members]].astype(np.float32)
+    shape = corners - corners.reshape(-1, 3).min(axis=0)
+    tolerance = LAYOUT_TOLERANCE * max(float(shape.max()), 1e-30)
+    for index, cached in enumerate(_layouts):
+        if cached.key == key and np.allclose(cached.shape, shape, rtol=0.0, atol=tolerance):
+            _layouts.append(_layouts.pop(index))
+            return cached.layout
+    layout = (_given_layout if given else _chart_layout)(scene, members, units, density,
+                                                         max_size, padding)
+    _layouts.append(_CachedLayout(key, shape, layout))
+    while sum(len(cached.shape) for cached in _layouts) > CACHED_LAYOUT_TRIANGLES:
+        _layouts.pop(0)
+    return layout
+
+
+def _layout_key(scene, members, units, density, max_size, padding):
+    """What a mesh's layout depends on besides its shape: which corners its triangles
+    share, their faces and back-face copies, given lightmap UVs, the object's texel scale
+    and the settings."""
+    _, shared = np.unique(scene.triangles[members], return_inverse=True)
+    polygon = scene.polygon[members]
+    first_face = int(polygon[polygon >= 0].min()) if (polygon >= 0).any() else 0
+    back = (np.zeros(0) if scene.back_of is None else scene.back_of[members] >= 0)
+    lightmap_uv = np.zeros(0) if scene.lightmap_uv is None else scene.lightmap_uv[members]
+    texel_scale = float(scene.object_texel_scale[int(scene.object_index[members[0]])])
+    digest = hashlib.blake2b(digest_size=20)
+    for array in (shared, np.where(polygon >= 0, polygon - first_face, -1), back,
+                  lightmap_uv):
+        array = np.ascontiguousarray(array)
+        digest.update(str((array.dtype, array.shape)).encode())
+        digest.update(array.tobytes())
+    return (digest.hexdigest(), texel_scale, float(units), float(density), int(max_size),
+            int(padding), XATLAS_PIECE_TRIANGLES)
+
+
+@dataclass
+class _CachedLayout:
+    key: tuple
+    shape: np.ndarray       # (N, 3, 3) corners from the corner of their box, single floats
+    layout: "_Layout"
 
 
 @dataclass
@@ -582,20 +623,6 @@ def _destroy_settled_atlases():
     if _generated:
         time.sleep(max(0.0, _generated[-1][1] + XATLAS_SETTLE_SECONDS - time.monotonic()))
         _generated.clear()
-
-
-def _cache_key(scene, chosen, density, max_size, padding):
-    """Everything the atlas depends on: the charted triangles' corners and given lightmap
-    UVs, their objects and the objects' texel scales and layouts, and the packing settings."""
-    digest = hashlib.blake2b(digest_size=20)
-    lightmap_uv = np.zeros(0) if scene.lightmap_uv is None else scene.lightmap_uv[chosen]
-    for array in (scene.vertices[scene.triangles[chosen]], scene.object_index[chosen],
-                  np.asarray(scene.object_texel_scale, dtype=np.float64), chosen,
-                  scene.object_layout, scene.object_slot, scene.object_block, lightmap_uv):
-        array = np.ascontiguousarray(array)
-        digest.update(str((array.dtype, array.shape)).encode())
-        digest.update(array.tobytes())
-    return digest.hexdigest(), float(density), int(max_size), int(padding)
 
 
 def _copy(atlas):

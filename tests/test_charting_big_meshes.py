@@ -6,6 +6,7 @@ import pytest
 from native import PointLight, Scene
 from native import atlas as atlas_module
 from native.atlas import build_atlas, clear_cache
+from native.samples import SceneBuilder
 from tests import scenes
 
 
@@ -70,3 +71,37 @@ def test_pieces_keep_faces_whole_and_charts_apart(monkeypatch, piece):
             held[y0:y1, x0:x1] = True
         assert (owner[held] == -1).all()
         owner[held] = chart
+
+
+def two_boxes(shift_second=0.0):
+    """Two boxes of one shape, 3 m apart, each an object and a layout of its own (as moved
+    copies or linked duplicates with modifiers are exported)."""
+    builder = SceneBuilder()
+    for name, x in (("first", 0.0), ("second", 3.0)):
+        builder.box(name, [(x, 0.4, 0), (x + 0.6, 0.4, 0), (x + 0.6, 0.4, 0.5), (x, 0.4, 0.5)],
+                    0.0, (0.5,) * 3)
+    scene = builder.build(lights=[PointLight((1.5, 2.0, 0.0), 100.0)])
+    second = scene.object_index == scene.object_names.index("second")
+    scene.vertices[np.unique(scene.triangles[second][:1])] += [0.0, 0.0, shift_second]
+    return scene
+
+
+def test_meshes_of_one_shape_are_charted_once_and_a_changed_one_alone_again(monkeypatch):
+    generated = []
+    monkeypatch.setattr(atlas_module, "_generate",
+                        lambda atlas, *options: generated.append(atlas) or atlas.generate(
+                            *options))
+    clear_cache()
+    scene = two_boxes()
+    atlas = build_atlas(scene, 20.0, max_size=256, padding=2)
+    assert len(generated) == 1
+    first, second = (scene.object_index[atlas.triangles] == scene.object_names.index(name)
+                      for name in ("first", "second"))
+    shift = atlas.texels[second] - atlas.texels[first]
+    np.testing.assert_allclose(shift, shift[:1, :1].repeat(len(shift), 0).repeat(3, 1))
+    np.testing.assert_allclose(shift, np.round(shift))
+    # One corner of the second box moved: it alone is charted again.
+    moved = build_atlas(two_boxes(shift_second=0.05), 20.0, max_size=256, padding=2)
+    assert len(generated) == 2
+    np.testing.assert_array_equal(moved.texels[first] - moved.object_origin[scene.object_names.index("first")],
+                                  atlas.texels[first] - atlas.object_origin[scene.object_names.index("first")])
