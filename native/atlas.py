@@ -427,12 +427,7 @@ def _keep_faces_in_one_chart(scene, order, texels, page, chart, size, page_count
     split = [group for group in np.split(rows, starts[1:]) if len(set(chart[group])) > 1]
     if not split:
         return
-    # Which chart holds each texel, from its triangles' texel boxes (only when a face is cut).
-    width, height = size
-    owner = np.full((page_count, height, width), -1, dtype=np.int32)
-    for row in np.nonzero(packed)[0]:
-        x0, y0, x1, y1 = _texel_box(texels[row])
-        owner[page[row], y0:y1, x0:x1] = chart[row]
+    owner = _chart_owners(texels, page, chart, packed, size, page_count)
     for group in split:
         edges = texels[group, 1:] - texels[group, :1]                  # (N, 2, 2)
         uv_area = np.abs(edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 0, 1] * edges[:, 1, 0])
@@ -445,6 +440,26 @@ def _keep_faces_in_one_chart(scene, order, texels, page, chart, size, page_count
             texels[r], page[r], chart[r] = corners, page[anchor], chart[anchor]
             x0, y0, x1, y1 = _texel_box(corners)
             owner[page[r], y0:y1, x0:x1] = chart[r]
+
+
+def _chart_owners(texels, page, chart, packed, size, page_count):
+    """Which chart holds each texel (page_count, height, width), -1 none: the chart of the
+    last of the ``packed`` triangles whose texel box covers it."""
+    width, height = size
+    rows = np.nonzero(packed)[0]
+    start, end = _texel_span(texels[rows].min(axis=1), texels[rows].max(axis=1))
+    start = np.clip(start, 0, [width, height])
+    extent = np.maximum(np.minimum(end, [width, height]) - start, 0)
+    counts = extent.prod(axis=1)
+    covering = np.repeat(rows, counts)
+    within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    box_width = np.repeat(extent[:, 0], counts)
+    x = np.repeat(start[:, 0], counts) + within % np.maximum(box_width, 1)
+    y = np.repeat(start[:, 1], counts) + within // np.maximum(box_width, 1)
+    last = np.full(page_count * height * width, -1, dtype=np.int64)
+    np.maximum.at(last, (page[covering] * height + y) * width + x, covering)
+    owner = np.where(last >= 0, chart[np.maximum(last, 0)], -1)
+    return owner.reshape(page_count, height, width).astype(np.int32)
 
 
 def _moved_into_chart(scene, order, texels, page, chart, group, anchor, owner, size):
