@@ -4,12 +4,14 @@ furniture subdivided further: every furniture mesh ``level`` more Subdivision Su
 (the sofa keeps its one level more), the walls, floor and ceiling as they are.
 
     python bench/bench_charting.py export 3 4 5 6          # needs the bpy module, once
-    python bench/bench_charting.py run 4 5 [--code A B] [--repeats N] [--json PATH]
+    python bench/bench_charting.py run 4 5 [--code before=DIR after=DIR] [--repeats N]
+        [--timeout S] [--preprocess] [--json PATH]
 
 `export` writes bench/scenes/generated/interior-subdiv<level>.npz (not committed: up to
-100 MB). `run` measures each (level, code) pair in a fresh Python process, the codes in
-turn, ``--repeats`` times: ``--code`` names checkouts of this repository whose native/ is
-timed (default: this one), so that two versions are compared in one job.
+35 MB). `run` measures each (level, code) pair in a fresh Python process, the codes in
+turn, ``--repeats`` times: ``--code`` names checkouts of this repository (label=directory)
+whose native/ is timed (default: this one), so that two versions are compared in one job.
+A run past ``--timeout`` seconds is recorded as such.
 """
 import argparse
 import json
@@ -63,15 +65,15 @@ def measure(level, density, preprocess):
     solved = scene.with_back_faces()       # what the solver charts
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     clear_cache()
-    started = time.perf_counter()
+    started, cpu_started = time.perf_counter(), time.process_time()
     atlas = build_atlas(solved, density, settings.max_atlas_size, settings.padding,
                         align=1 << settings.shoot_level)
-    seconds = time.perf_counter() - started
+    seconds, cpu_seconds = time.perf_counter() - started, time.process_time() - cpu_started
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     packed, _ = tight_packing(atlas, 1 << settings.shoot_level)
     row = {"level": level, "triangles": int(len(scene.triangles)),
            "charted_triangles": int(len(atlas.triangles)), "objects": len(scene.object_names),
-           "density": density, "atlas_seconds": seconds,
+           "density": density, "atlas_seconds": seconds, "atlas_cpu_seconds": cpu_seconds,
            "peak_rss_mb": peak / 1024, "atlas_rss_growth_mb": (peak - before) / 1024,
            "pages": atlas.page_count, "page_size": [atlas.width, atlas.height],
            "texels": atlas.page_count * atlas.width * atlas.height,
@@ -90,36 +92,48 @@ def measure(level, density, preprocess):
 
 
 def run(args):
-    codes = [Path(code).resolve() for code in (args.code or [ROOT])]
+    codes = dict(code.split("=", 1) for code in (args.code or [f"this={ROOT}"]))
     rows = []
     for level in args.levels:
         for repeat in range(args.repeats):
-            for code in codes:
+            for label, code in codes.items():
                 command = [sys.executable, str(Path(__file__).resolve()), "measure",
                            str(level), "--density", str(args.density)]
                 if args.preprocess:
                     command.append("--preprocess")
-                environment = dict(os.environ, PYTHONPATH=str(code))
-                output = subprocess.run(command, env=environment, check=True,
-                                        capture_output=True, text=True, cwd=code).stdout
-                row = json.loads(output.strip().splitlines()[-1])
-                row.update(code=str(code), repeat=repeat)
+                environment = dict(os.environ, PYTHONPATH=str(Path(code).resolve()))
+                try:
+                    output = subprocess.run(command, env=environment, check=True,
+                                            capture_output=True, text=True, cwd=code,
+                                            timeout=args.timeout).stdout
+                    row = json.loads(output.strip().splitlines()[-1])
+                except subprocess.TimeoutExpired:
+                    row = {"level": level, "timed_out_after_seconds": args.timeout}
+                row.update(code=label, repeat=repeat)
                 rows.append(row)
                 print(json.dumps(row), flush=True)
     summary = []
     for level in args.levels:
         for code in codes:
-            mine = [r for r in rows if r["level"] == level and r["code"] == str(code)]
+            mine = [r for r in rows if r["level"] == level and r["code"] == code
+                    and "timed_out_after_seconds" not in r]
+            if not mine:
+                summary.append({"level": level, "code": code,
+                                "timed_out_after_seconds": args.timeout})
+                print(f"level {level} {code}: over {args.timeout} s")
+                continue
             entry = {key: mine[0][key] for key in ("level", "code", "triangles", "pages",
                                                    "page_size", "texels", "gpu_page_size",
                                                    "gpu_texels", "charts", "unpacked")}
-            for key in ("atlas_seconds", "peak_rss_mb", "atlas_rss_growth_mb",
+            for key in ("atlas_seconds", "atlas_cpu_seconds", "peak_rss_mb", "atlas_rss_growth_mb",
                         "preprocess_seconds", "preprocess_atlas_seconds"):
                 if key in mine[0]:
                     entry[f"median_{key}"] = statistics.median(r[key] for r in mine)
             summary.append(entry)
-            print(f"level {level} ({entry['triangles']} triangles) {code.name}: atlas "
-                  f"{entry['median_atlas_seconds']:.2f} s, peak {entry['median_peak_rss_mb']:.0f} MB,"
+            entry["runs"] = len(mine)
+            print(f"level {level} ({entry['triangles']} triangles) {code}: atlas "
+                  f"{entry['median_atlas_seconds']:.2f} s (CPU "
+                  f"{entry['median_atlas_cpu_seconds']:.2f} s), peak {entry['median_peak_rss_mb']:.0f} MB,"
                   f" {entry['pages']} x {entry['page_size']} = {entry['texels']} texels "
                   f"(GPU {entry['gpu_page_size']}), {entry['charts']} charts")
     if args.json:
@@ -136,7 +150,9 @@ def main():
     exporting.add_argument("levels", type=int, nargs="+")
     running = commands.add_parser("run", help="time the codes on the scenes")
     running.add_argument("levels", type=int, nargs="+")
-    running.add_argument("--code", nargs="+", help="checkouts to time (default: this one)")
+    running.add_argument("--code", nargs="+", metavar="LABEL=DIR",
+                         help="checkouts to time (default: this one)")
+    running.add_argument("--timeout", type=float, default=1800.0)
     running.add_argument("--repeats", type=int, default=1)
     running.add_argument("--density", type=float, default=10.0)
     running.add_argument("--preprocess", action="store_true",
