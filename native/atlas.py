@@ -423,8 +423,13 @@ def _keep_faces_in_one_chart(scene, order, texels, page, chart, size, page_count
     packed = (page >= 0) & (page < page_count)
     faces = (polygon >= 0) & packed
     rows = np.nonzero(faces)[0][np.argsort(polygon[faces], kind="stable")]
+    if not len(rows):
+        return
     starts = np.nonzero(np.r_[True, np.diff(polygon[rows]) != 0])[0]
-    split = [group for group in np.split(rows, starts[1:]) if len(set(chart[group])) > 1]
+    ends = np.r_[starts[1:], len(rows)]
+    cut = np.nonzero(np.minimum.reduceat(chart[rows], starts)
+                     != np.maximum.reduceat(chart[rows], starts))[0]
+    split = [rows[starts[face]:ends[face]] for face in cut]
     if not split:
         return
     owner = _chart_owners(texels, page, chart, packed, size, page_count)
