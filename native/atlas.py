@@ -1,6 +1,5 @@
 """Lightmap atlas: xatlas charts the receiving and emitting triangles at a texel density and
 packs them onto one or more pages. Texels follow surface area, not triangle count."""
-from collections import OrderedDict
 from dataclasses import dataclass, replace
 import hashlib
 import math
@@ -35,9 +34,11 @@ class Atlas:
         return self.texels / np.array([self.width, self.height], dtype=np.float64)
 
 
-# Re-bakes of unchanged geometry (new lights, materials, settings) reuse their atlas: xatlas
-# takes seconds on scenes of tens of thousands of triangles.
-CACHED_ATLASES = 4
+# Re-bakes reuse the layout of each mesh whose geometry did not change (new lights,
+# materials, settings, another object moved), and objects of one shape (linked duplicates
+# with their own modifiers, moved copies) share one: xatlas takes seconds per ten thousand
+# triangles. The cache forgets its oldest layouts past this many triangles in all.
+CACHED_LAYOUT_TRIANGLES = 3_000_000
 # tight_packing keeps the atlas's layout unless its pages would shrink to this share or less.
 TIGHT_PACKING_GAIN = 0.75
 OVERLAP_RESOLUTION = 1024   # grid overlapping_faces tests a UV map's [0, 1] square on
@@ -46,7 +47,11 @@ OVERLAP_BATCH = 1 << 22     # grid centres overlapping_faces tests at once (memo
 SNAP_TEXELS = 1e-3       # a UV corner this close to a texel edge lies on it
 MIN_XATLAS_AREA = 1e-3   # smallest triangle area handed to xatlas, in its units
 MAX_XATLAS_EXTENT = 1e6  # largest scene size handed to xatlas, in its units
-_cache = OrderedDict()
+XATLAS_PIECE_TRIANGLES = 8192   # most triangles xatlas charts as one mesh (_pieces)
+# Meshes whose corners (from the corner of their box) agree to this share of the box's
+# size share a layout: a moved copy's corners differ in their last bits.
+LAYOUT_TOLERANCE = 1e-6
+_layouts = []   # _CachedLayout, the latest used last
 # xatlas can deadlock when an atlas is destroyed right after generate(): its destructor wakes
 # the worker threads without taking their lock, so a worker still on its way back to sleep
 # misses the wake-up and the destructor joins it forever (seen here as a test run hanging
@@ -74,15 +79,7 @@ def build_atlas(scene, density, max_size=4096, padding=2, charted=None, align=1)
     if len(chosen) == 0:
         raise SettingsError("no triangle receives a lightmap: enable 'receive' on an object")
 
-    key = _cache_key(scene, chosen, density, max_size, padding) + (int(align),)
-    if key in _cache:
-        _cache.move_to_end(key)
-        return _copy(_cache[key])
-    result = _build(scene, chosen, density, max_size, padding, align)
-    _cache[key] = _copy(result)
-    while len(_cache) > CACHED_ATLASES:
-        _cache.popitem(last=False)
-    return result
+    return _build(scene, chosen, density, max_size, padding, align)
 
 
 def charted_triangles(scene):
@@ -91,8 +88,8 @@ def charted_triangles(scene):
 
 
 def clear_cache():
-    """Forget the cached atlases (benchmarks time xatlas every time)."""
-    _cache.clear()
+    """Forget the cached layouts (benchmarks time xatlas every time)."""
+    _layouts.clear()
 
 
 def _build(scene, chosen, density, max_size, padding, align):
@@ -114,10 +111,8 @@ def _build(scene, chosen, density, max_size, padding, align):
                     f"objects '{scene.object_names[obj]}' and "
                     f"'{scene.object_names[largest]}' share a layout but chart "
                     f"{len(of_object[obj])} and {len(of_object[largest])} triangles")
-        given = scene.lightmap_uv is not None and np.isfinite(
-            scene.lightmap_uv[of_object[largest]]).all()
-        layouts[layout] = (_given_layout if given else _chart_layout)(
-            scene, of_object[largest], units, density, max_size - align, padding)
+        layouts[layout] = _layout_of(scene, of_object[largest], units, density,
+                                     max_size - align, padding)
 
     placed = [obj for obj in of_object if layouts[int(scene.object_layout[obj])].size.min() > 0]
     sizes = {obj: -(-(layouts[int(scene.object_layout[obj])].size + padding) // align) * align
@@ -155,6 +150,53 @@ def _build(scene, chosen, density, max_size, padding, align):
                                if layouts[int(scene.object_layout[obj])].shrunk))
 
 
+def _layout_of(scene, members, units, density, max_size, padding):
+    """One mesh's layout: its own lightmap UVs or xatlas's charts, from the cache where a
+    mesh of the same shape (up to where it stands) was laid out at the same settings."""
+    given = scene.lightmap_uv is not None and np.isfinite(scene.lightmap_uv[members]).all()
+    key = _layout_key(scene, members, units, density, max_size, padding)
+    corners = scene.vertices[scene.triangles[members]].astype(np.float32)
+    shape = corners - corners.reshape(-1, 3).min(axis=0)
+    tolerance = LAYOUT_TOLERANCE * max(float(shape.max()), 1e-30)
+    for index, cached in enumerate(_layouts):
+        if cached.key == key and np.allclose(cached.shape, shape, rtol=0.0, atol=tolerance):
+            _layouts.append(_layouts.pop(index))
+            return cached.layout
+    layout = (_given_layout if given else _chart_layout)(scene, members, units, density,
+                                                         max_size, padding)
+    _layouts.append(_CachedLayout(key, shape, layout))
+    while sum(len(cached.shape) for cached in _layouts) > CACHED_LAYOUT_TRIANGLES:
+        _layouts.pop(0)
+    return layout
+
+
+def _layout_key(scene, members, units, density, max_size, padding):
+    """What a mesh's layout depends on besides its shape: which corners its triangles
+    share, their faces and back-face copies, given lightmap UVs, the object's texel scale
+    and the settings."""
+    _, shared = np.unique(scene.triangles[members], return_inverse=True)
+    polygon = scene.polygon[members]
+    first_face = int(polygon[polygon >= 0].min()) if (polygon >= 0).any() else 0
+    back = (np.zeros(0) if scene.back_of is None else scene.back_of[members] >= 0)
+    lightmap_uv = np.zeros(0) if scene.lightmap_uv is None else scene.lightmap_uv[members]
+    texel_scale = float(scene.object_texel_scale[int(scene.object_index[members[0]])])
+    digest = hashlib.blake2b(digest_size=20)
+    for array in (shared, np.where(polygon >= 0, polygon - first_face, -1), back,
+                  lightmap_uv):
+        array = np.ascontiguousarray(array)
+        digest.update(str((array.dtype, array.shape)).encode())
+        digest.update(array.tobytes())
+    return (digest.hexdigest(), texel_scale, float(units), float(density), int(max_size),
+            int(padding), XATLAS_PIECE_TRIANGLES)
+
+
+@dataclass
+class _CachedLayout:
+    key: tuple
+    shape: np.ndarray       # (N, 3, 3) corners from the corner of their box, single floats
+    layout: "_Layout"
+
+
 @dataclass
 class _Layout:
     """One mesh's charts on a page of their own: texels (N, 3, 2) of its charted triangles
@@ -170,7 +212,10 @@ class _Layout:
 def _chart_layout(scene, members, units, density, max_size, padding):
     """xatlas charts one object's triangles and packs them on one page of at most
     ``max_size`` (less the padding after it); a mesh too large for it is charted coarser
-    until it fits."""
+    until it fits. Back-face copies are a mesh of their own: on their originals' surface,
+    xatlas would join the two sheets at their shared corners into one tangle of an edge
+    between four faces, cut into hundreds of charts packed for seconds. Large meshes go to
+    xatlas in pieces (_pieces)."""
     chart_options = xatlas.ChartOptions()
     pack_options = xatlas.PackOptions()
     pack_options.padding = int(padding)
@@ -178,9 +223,13 @@ def _chart_layout(scene, members, units, density, max_size, padding):
     pack_options.max_chart_size = int(max_size - 2 * padding - 2)
     fits = max_size - padding
     texels_per_unit = float(density) / units
+    back = (np.zeros(len(members), bool) if scene.back_of is None
+            else scene.back_of[members] >= 0)
+    meshes = [piece for rows in (np.nonzero(~back)[0], np.nonzero(back)[0]) if len(rows)
+              for piece in _pieces(scene, members, rows)]
     for _ in range(8):
         pack_options.texels_per_unit = texels_per_unit
-        atlas = _atlas_of(scene, [members], units)
+        atlas = _atlas_of(scene, [members[rows] for rows in meshes], units)
         _generate(atlas, chart_options, pack_options)
         if max(atlas.width, atlas.height) <= fits and atlas.atlas_count <= 1:
             break
@@ -189,17 +238,22 @@ def _chart_layout(scene, members, units, density, max_size, padding):
         raise SettingsError(f"object '{scene.object_name(members[0])}' does not fit one "
                             f"{max_size}-texel lightmap page: lower the texel density")
     width, height = int(atlas.width), int(atlas.height)
-    _, indices, uvs = atlas[0]
-    corners = indices.reshape(-1, 3)
-    pages, _ = atlas.get_mesh_vertex_assignment(0)
-    # xatlas puts texel centres on integer + 0.5 coordinates of its charts; shifting by
-    # half a texel makes a chart of whole texels cover whole texels.
-    texels = uvs[corners].astype(np.float64) * [width, height] - 0.5
-    page = pages[corners[:, 0]].astype(np.int64)
+    texels = np.zeros((len(members), 3, 2))
+    page = np.zeros(len(members), dtype=np.int64)
     chart = np.full(len(members), -1, dtype=np.int64)
-    chart_count = atlas.get_mesh_chart_count(0)
-    for index in range(chart_count):
-        chart[atlas.get_mesh_chart(0, index).faces.astype(np.int64)] = index
+    chart_count = 0
+    for mesh, rows in enumerate(meshes):
+        _, indices, uvs = atlas[mesh]
+        corners = indices.reshape(-1, 3)
+        pages, _ = atlas.get_mesh_vertex_assignment(mesh)
+        # xatlas puts texel centres on integer + 0.5 coordinates of its charts; shifting by
+        # half a texel makes a chart of whole texels cover whole texels.
+        texels[rows] = uvs[corners].astype(np.float64) * [width, height] - 0.5
+        page[rows] = pages[corners[:, 0]]
+        for index in range(atlas.get_mesh_chart_count(mesh)):
+            chart[rows[atlas.get_mesh_chart(mesh, index).faces.astype(np.int64)]] = (
+                chart_count + index)
+        chart_count += atlas.get_mesh_chart_count(mesh)
     _keep_faces_in_one_chart(scene, members, texels, page, chart, (width, height), 1)
     # ... up to the rounding of xatlas's single-float UVs: snapped, so that a chart's edge
     # claims no sliver of the next texel (a texel of its own, of 1e-6 of its area).
@@ -211,6 +265,39 @@ def _chart_layout(scene, members, units, density, max_size, padding):
         width = height = 0
     return _Layout(texels, chart, packed, np.array([width, height], dtype=np.int64),
                    chart_count, texels_per_unit < float(density) / units)
+
+
+def _pieces(scene, members, rows):
+    """``rows`` (of ``members``) cut into pieces of at most XATLAS_PIECE_TRIANGLES, each
+    a mesh of its own for xatlas: halves by the median along the longest side of their
+    centres, recursively, a face's triangles (Scene.polygon) always in one piece. xatlas
+    checks a growing chart's whole boundary at each face it adds, a time that grows faster
+    than the chart's faces (a smooth, finely subdivided sofa: a few huge charts); pieces
+    bound it, and xatlas charts them on all cores, at the cost of a few more charts."""
+    if len(rows) <= XATLAS_PIECE_TRIANGLES:
+        return [rows]
+    triangles = members[rows]
+    polygon = scene.polygon[triangles]
+    face = np.where(polygon >= 0, polygon, -1 - np.arange(len(rows)))  # loose triangles alone
+    _, group = np.unique(face, return_inverse=True)
+    centre = scene.vertices[scene.triangles[triangles]].mean(axis=1)
+    face_centre = np.zeros((group.max() + 1, 3))
+    np.add.at(face_centre, group, centre)
+    centre = face_centre[group] / np.bincount(group)[group, None]
+    pieces, pending = [], [np.arange(len(rows))]
+    while pending:
+        part = pending.pop()
+        if len(part) <= XATLAS_PIECE_TRIANGLES:
+            pieces.append(np.sort(rows[part]))
+            continue
+        axis = int(np.argmax(np.ptp(centre[part], axis=0)))
+        part = part[np.lexsort((group[part], centre[part, axis]))]
+        cut = len(part) // 2
+        while cut < len(part) and group[part[cut]] == group[part[cut - 1]]:
+            cut += 1
+        pending += [part[:cut], part[cut:]] if cut < len(part) else [part[:len(part) // 2],
+                                                                   part[len(part) // 2:]]
+    return pieces
 
 
 def _given_layout(scene, members, units, density, max_size, padding):
@@ -336,16 +423,16 @@ def _keep_faces_in_one_chart(scene, order, texels, page, chart, size, page_count
     packed = (page >= 0) & (page < page_count)
     faces = (polygon >= 0) & packed
     rows = np.nonzero(faces)[0][np.argsort(polygon[faces], kind="stable")]
+    if not len(rows):
+        return
     starts = np.nonzero(np.r_[True, np.diff(polygon[rows]) != 0])[0]
-    split = [group for group in np.split(rows, starts[1:]) if len(set(chart[group])) > 1]
+    ends = np.r_[starts[1:], len(rows)]
+    cut = np.nonzero(np.minimum.reduceat(chart[rows], starts)
+                     != np.maximum.reduceat(chart[rows], starts))[0]
+    split = [rows[starts[face]:ends[face]] for face in cut]
     if not split:
         return
-    # Which chart holds each texel, from its triangles' texel boxes (only when a face is cut).
-    width, height = size
-    owner = np.full((page_count, height, width), -1, dtype=np.int32)
-    for row in np.nonzero(packed)[0]:
-        x0, y0, x1, y1 = _texel_box(texels[row])
-        owner[page[row], y0:y1, x0:x1] = chart[row]
+    owner = _chart_owners(texels, page, chart, packed, size, page_count)
     for group in split:
         edges = texels[group, 1:] - texels[group, :1]                  # (N, 2, 2)
         uv_area = np.abs(edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 0, 1] * edges[:, 1, 0])
@@ -358,6 +445,26 @@ def _keep_faces_in_one_chart(scene, order, texels, page, chart, size, page_count
             texels[r], page[r], chart[r] = corners, page[anchor], chart[anchor]
             x0, y0, x1, y1 = _texel_box(corners)
             owner[page[r], y0:y1, x0:x1] = chart[r]
+
+
+def _chart_owners(texels, page, chart, packed, size, page_count):
+    """Which chart holds each texel (page_count, height, width), -1 none: the chart of the
+    last of the ``packed`` triangles whose texel box covers it."""
+    width, height = size
+    rows = np.nonzero(packed)[0]
+    start, end = _texel_span(texels[rows].min(axis=1), texels[rows].max(axis=1))
+    start = np.clip(start, 0, [width, height])
+    extent = np.maximum(np.minimum(end, [width, height]) - start, 0)
+    counts = extent.prod(axis=1)
+    covering = np.repeat(rows, counts)
+    within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    box_width = np.repeat(extent[:, 0], counts)
+    x = np.repeat(start[:, 0], counts) + within % np.maximum(box_width, 1)
+    y = np.repeat(start[:, 1], counts) + within // np.maximum(box_width, 1)
+    last = np.full(page_count * height * width, -1, dtype=np.int64)
+    np.maximum.at(last, (page[covering] * height + y) * width + x, covering)
+    owner = np.where(last >= 0, chart[np.maximum(last, 0)], -1)
+    return owner.reshape(page_count, height, width).astype(np.int32)
 
 
 def _moved_into_chart(scene, order, texels, page, chart, group, anchor, owner, size):
@@ -536,20 +643,6 @@ def _destroy_settled_atlases():
     if _generated:
         time.sleep(max(0.0, _generated[-1][1] + XATLAS_SETTLE_SECONDS - time.monotonic()))
         _generated.clear()
-
-
-def _cache_key(scene, chosen, density, max_size, padding):
-    """Everything the atlas depends on: the charted triangles' corners and given lightmap
-    UVs, their objects and the objects' texel scales and layouts, and the packing settings."""
-    digest = hashlib.blake2b(digest_size=20)
-    lightmap_uv = np.zeros(0) if scene.lightmap_uv is None else scene.lightmap_uv[chosen]
-    for array in (scene.vertices[scene.triangles[chosen]], scene.object_index[chosen],
-                  np.asarray(scene.object_texel_scale, dtype=np.float64), chosen,
-                  scene.object_layout, scene.object_slot, scene.object_block, lightmap_uv):
-        array = np.ascontiguousarray(array)
-        digest.update(str((array.dtype, array.shape)).encode())
-        digest.update(array.tobytes())
-    return digest.hexdigest(), float(density), int(max_size), int(padding)
 
 
 def _copy(atlas):
