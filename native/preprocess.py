@@ -84,7 +84,7 @@ def create_gpu_state(state):
     set_constant_uniforms(state)
     state.albedo_textures = albedo_textures(gl, state.scene)
     size = (state.packed.width, state.packed.height)
-    state.pages = [allocate_page(gl, state.settings, size)
+    state.pages = [allocate_page(gl, 1 << state.patch_level, size)
                    for _ in range(state.packed.page_count)]
 
 
@@ -126,7 +126,7 @@ def set_constant_uniforms(state):
         "attributes": {"u_atlas_size": size, "u_albedo_texture": 0},
         "area": {"u_atlas_size": size},
         "moments": {"u_atlas_size": size, "u_normal": 0},
-        "block": {"u_block": 1 << settings.shoot_level, "u_position": 0, "u_unshot": 1},
+        "block": {"u_block": 1 << state.patch_level, "u_position": 0, "u_unshot": 1},
         "argmax": {"u_source": 0},
         "visibility": {"u_ortho_half": bounds.radius},
         "nonlinear": {"u_resolution": float(state.map_size)},
@@ -159,8 +159,9 @@ def albedo_textures(gl, scene):
     return textures
 
 
-def allocate_page(gl, settings, size):
-    """A page's maps but the irradiance, which rasterize makes once its depth is gone."""
+def allocate_page(gl, block, size):
+    """A page's maps but the irradiance, which rasterize makes once its depth is gone; the
+    arg-max pyramid starts at blocks of ``block`` texels (the patches)."""
     textures = {
         "position": gl.texture(size, 4),            # xyz, area
         "normal": gl.texture(size, 4, "nu2"),       # octahedral (texel_maps.glsl), spread
@@ -175,7 +176,6 @@ def allocate_page(gl, settings, size):
         area_only=gl.framebuffer([textures["position"]]),
         level_only=gl.framebuffer([textures["level"]]),
         textures=textures)
-    block = 1 << settings.shoot_level
     level = (-(-size[0] // block), -(-size[1] // block))
     # The arg-max pyramid stops at the grid of regions that selection reads back.
     while True:
@@ -334,12 +334,12 @@ def bent_normal_codes(normal_sum, moments, sample_normals):
 
 def measure_emission(state):
     """Emitted power as the texels hold it (the unshot maps start as the emission), summed
-    in double precision; the receiving texels, and the blocks at the shooting level that hold
-    texels (a mean block's share of the power, for selection.block_region). Keeps each
-    page's areas, atlas layout and emitting texels."""
+    in double precision; the receiving texels, and the patches (blocks at the patch level)
+    that hold texels (a mean patch's share of the power, for selection.block_region). Keeps
+    each page's areas, atlas layout and emitting texels."""
     energy = Energy(emitted_maps=np.zeros(3), surface_area=0.0, albedo_area=np.zeros(3),
                     texel_count=0, shooting_blocks=0)
-    block = 1 << state.settings.shoot_level
+    block = 1 << state.patch_level
     for page_index, page in enumerate(state.pages):
         area = read_map(page.textures["position"])[..., 3:4]
         height, width = area.shape[:2]

@@ -120,6 +120,7 @@ SUBDIVISION_CHOICES = (
 PROJECTIONS = tuple(choice.identifier for choice in PROJECTION_CHOICES)
 SUBDIVISIONS = tuple(choice.identifier for choice in SUBDIVISION_CHOICES)
 MAX_SUBDIVISION_LEVEL = 3
+MAX_SHOOT_LEVEL = 6
 
 # Settings has its fields in this order (and report.json its settings).
 SETTINGS = (
@@ -137,9 +138,15 @@ SETTINGS = (
             "projections' maps are twice as wide",
             exposed=Exposed(label="Hemicube Resolution", option="--hemicube",
                             subtype='PIXEL')),
-    Setting(name="shoot_level", kind=int, default=2, minimum=0, maximum=6,
-            help="Mip level shot from: a shooter spans 2^level texels",
+    Setting(name="shoot_level", kind=int, default=2, minimum=0, maximum=MAX_SHOOT_LEVEL,
+            help="The finest mip level shot from: a shooter spans at least 2^level texels",
             exposed=Exposed(label="Shoot Level", option="--shoot-level")),
+    # Shots then follow the scene's light and geometry, not how finely texels sample it.
+    Setting(name="patch_size", kind=float, default=0.0, unit="metres", minimum=0.0,
+            soft_maximum=10.0, help="Side of the patches that shoot (blocks of texels whose "
+            "side is nearest it, no finer than Shoot Level's); 0 sizes them from the scene's "
+            "surface area",
+            exposed=Exposed(label="Patch Size", option="--patch-size", digits=3)),
     Setting(name="threshold", kind=float, default=0.01, minimum=0.0, maximum=0.99,
             help="Stop when this fraction of the emitted power is left unshot (sunlight that "
             "misses the scene does not count)",

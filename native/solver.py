@@ -195,6 +195,8 @@ class Solver:
         self.atlas = state.atlas = self._chart(settings.texel_density)
         # The GPU works on the charts packed tight; results go back to self.atlas's layout.
         state.packed, state.texel_map = tight_packing(self.atlas, 1 << settings.shoot_level)
+        state.patch_level = selection.patch_level(
+            settings, float(scene.triangle_area[state.packed.triangles].sum()))
         self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
         self._memory_bytes = memory.memory_needed(state.packed, settings, state.map_size)
         memory.check_memory(state.packed, settings, self._memory_bytes,
@@ -209,8 +211,8 @@ class Solver:
                                      settings.subdivision_level)
         self._visibility = visibility.create(state)
         self._gaps = thin_gaps.create(state)
-        block = 1 << (settings.shoot_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
-                                              else 0))
+        block = 1 << (state.patch_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
+                                           else 0))
         # What a shot changes in place (state.blend_points): grows with the largest such set.
         state.points_vbo = gl.buffer(reserve=block * block * POINT_BYTES)
         self._shooters = shooters.ShooterCaches(

@@ -66,6 +66,7 @@ class BakeState:
     atlas: object = None        # the lightmaps' layout (Solver.atlas)
     packed: object = None       # the charts packed tight: the pages the GPU works on
     texel_map: object = None    # packed page texels -> atlas texels (atlas.tight_packing)
+    patch_level: int = 0        # the mip level whose blocks shoot (selection.patch_level)
     programs: dict = None
     fullscreen: dict = None     # vertex arrays drawing one screen-filling triangle
     albedo_textures: list = None
@@ -81,7 +82,7 @@ class Energy:
     surface_area: float         # m^2, all texels
     albedo_area: np.ndarray     # receiving texels' albedo times area
     texel_count: int            # receiving texels
-    shooting_blocks: int        # blocks at the shooting level holding texels
+    shooting_blocks: int        # patches (blocks at the patch level) holding texels
     emitted: np.ndarray = None  # the texels' and the lights'
     emitted_scalar: float = 0.0
     shot_power: np.ndarray = field(default_factory=lambda: np.zeros(3))
