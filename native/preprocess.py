@@ -80,7 +80,7 @@ def create_gpu_state(state):
     gl = state.gl
     state.programs = create_programs(gl, state.settings)
     state.fullscreen = {name: gl.vertex_array(state.programs[name], [])
-                        for name in ("block", "argmax", "patch", "light")}
+                        for name in ("block", "argmax")}
     set_constant_uniforms(state)
     state.albedo_textures = albedo_textures(gl, state.scene)
     size = (state.packed.width, state.packed.height)
@@ -103,8 +103,8 @@ def create_programs(gl, settings):
             "visibility_hemisphere_tessellated.geom"),
         "nonlinear": gl.program("visibility.vert", "visibility_nonlinear.frag",
                                 "visibility_nonlinear.geom"),
-        "patch": gl.program("fullscreen.vert", "receive_patch.frag"),
-        "light": gl.program("fullscreen.vert", "receive_light.frag"),
+        "patch": gl.program("receiver_boxes.vert", "receive_patch.frag"),
+        "light": gl.program("receiver_boxes.vert", "receive_light.frag"),
         "take": gl.program("take_unshot.vert", "take_unshot.frag"),
     }
     if settings.subdivision != "NONE":
@@ -117,7 +117,7 @@ def set_constant_uniforms(state):
     """Uniforms that stay the same for the whole bake (texture units among them)."""
     size = (float(state.packed.width), float(state.packed.height))
     settings, bounds = state.settings, state.bounds
-    receivers = {"u_resolution": float(state.map_size),
+    receivers = {"u_resolution": float(state.map_size), "u_atlas_size": size,
                  "u_epsilon": bounds.epsilon, "u_ortho_half": bounds.radius,
                  "u_neighbour_visibility": int(settings.neighbour_visibility),
                  "u_emitting_surfaces": state.emitting_surfaces,

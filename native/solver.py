@@ -233,6 +233,7 @@ class Solver:
 
     def _measure_emission(self):
         self._energy = preprocess.measure_emission(self._state)
+        self._state.receiver_tiles = receivers.create_tiles(self._state)
 
     def _chart(self, density):
         return build_atlas(self.scene, density, self.settings.max_atlas_size,
@@ -301,7 +302,9 @@ class Solver:
         self._maybe_subdivide(view, float(np.mean(shot_power)), clip_below=True)
         receivers.take_unshot(state, shooter)
         receivers.set_patch_uniforms(state, shooter)
-        self._timed("receivers", receivers.update, state, self._visibility, view, "patch")
+        receiving = receivers.receiving_tiles(state.receiver_tiles, shooter, state.bounds.epsilon)
+        self._timed("receivers", receivers.update, state, self._visibility, view, "patch",
+                    receiving)
         if shooter.extent is not None:
             self._timed("receivers", thin_gaps.close, state, self._gaps, shooter)
 

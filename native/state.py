@@ -67,6 +67,7 @@ class BakeState:
     packed: object = None       # the charts packed tight: the pages the GPU works on
     texel_map: object = None    # packed page texels -> atlas texels (atlas.tight_packing)
     patch_level: int = 0        # the mip level whose blocks shoot (selection.patch_level)
+    receiver_tiles: object = None  # receivers.ReceiverTiles: what the receiver pass draws
     programs: dict = None
     fullscreen: dict = None     # vertex arrays drawing one screen-filling triangle
     albedo_textures: list = None
