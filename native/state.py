@@ -103,6 +103,8 @@ class VisibilityMap:
     occluders: object           # geometry.TrianglePlanes of the occluding triangles
     caster_levels: np.ndarray   # per occluder its subdivision level (tessellated hemisphere)
     caster_vbo: object
+    cluster_low: np.ndarray     # (C, 3) bounds of each cluster of occluders (visibility.py)
+    cluster_high: np.ndarray
 
 
 @dataclass(frozen=True)
