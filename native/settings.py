@@ -143,7 +143,7 @@ SETTINGS = (
             exposed=Exposed(label="Shoot Level", option="--shoot-level")),
     # Shots then follow the scene's light and geometry, not how finely texels sample it.
     Setting(name="patch_size", kind=float, default=0.0, unit="metres", minimum=0.0,
-            soft_maximum=10.0, help="Side of the patches that shoot (blocks of texels whose "
+            maximum=1000.0, soft_maximum=10.0, help="Side of the patches that shoot (blocks of texels whose "
             "side is nearest it, no finer than Shoot Level's); 0 sizes them from the scene's "
             "surface area",
             exposed=Exposed(label="Patch Size", option="--patch-size", digits=3)),
