@@ -25,6 +25,7 @@ class LUXEL_PT_render(bpy.types.Panel):
         column.prop(settings, "ambient")
         column.prop(settings, "shoot_level")
         column.prop(settings, "adaptive_shoot_level", text="Adaptive")
+        column.prop(settings, "patch_size")
         column.prop(settings, "max_atlas_size")
         column.prop(settings, "output")
         if settings.output == 'FILES':

@@ -103,12 +103,12 @@ def create_gpu_state(state):
     gl = state.gl
     state.programs = create_programs(gl, state.settings)
     state.fullscreen = {name: gl.vertex_array(state.programs[name], [])
-                        for name in ("block", "argmax", "patch", "light")}
+                        for name in ("block", "argmax")}
     set_constant_uniforms(state)
     state.material_textures = {name: material_textures(gl, getattr(state.scene, name))
                                for _, name, _, _ in MATERIAL_TEXTURES}
     size = (state.packed.width, state.packed.height)
-    state.pages = [allocate_page(gl, state.settings, size)
+    state.pages = [allocate_page(gl, 1 << state.patch_level, size)
                    for _ in range(state.packed.page_count)]
 
 
@@ -127,8 +127,8 @@ def create_programs(gl, settings):
             "visibility_hemisphere_tessellated.geom"),
         "nonlinear": gl.program("visibility.vert", "visibility_nonlinear.frag",
                                 "visibility_nonlinear.geom"),
-        "patch": gl.program("fullscreen.vert", "receive_patch.frag"),
-        "light": gl.program("fullscreen.vert", "receive_light.frag"),
+        "patch": gl.program("receiver_boxes.vert", "receive_patch.frag"),
+        "light": gl.program("receiver_boxes.vert", "receive_light.frag"),
         "take": gl.program("take_unshot.vert", "take_unshot.frag"),
     }
     if settings.subdivision != "NONE":
@@ -141,7 +141,7 @@ def set_constant_uniforms(state):
     """Uniforms that stay the same for the whole bake (texture units among them)."""
     size = (float(state.packed.width), float(state.packed.height))
     settings, bounds = state.settings, state.bounds
-    receivers = {"u_resolution": float(state.map_size),
+    receivers = {"u_resolution": float(state.map_size), "u_atlas_size": size,
                  "u_epsilon": bounds.epsilon, "u_ortho_half": bounds.radius,
                  "u_neighbour_visibility": int(settings.neighbour_visibility),
                  "u_emitting_surfaces": state.emitting_surfaces,
@@ -151,7 +151,7 @@ def set_constant_uniforms(state):
                        "u_emission_texture": 1, "u_reflectance_texture": 2},
         "area": {"u_atlas_size": size},
         "moments": {"u_atlas_size": size, "u_normal": 0},
-        "block": {"u_block": 1 << settings.shoot_level, "u_position": 0, "u_unshot": 1},
+        "block": {"u_block": 1 << state.patch_level, "u_position": 0, "u_unshot": 1},
         "argmax": {"u_source": 0},
         "visibility": {"u_ortho_half": bounds.radius},
         "nonlinear": {"u_resolution": float(state.map_size)},
@@ -184,8 +184,9 @@ def material_textures(gl, images):
     return textures
 
 
-def allocate_page(gl, settings, size):
-    """A page's maps but the irradiance, which rasterize makes once its depth is gone."""
+def allocate_page(gl, block, size):
+    """A page's maps but the irradiance, which rasterize makes once its depth is gone; the
+    arg-max pyramid starts at blocks of ``block`` texels (the patches)."""
     textures = {
         "position": gl.texture(size, 4),            # xyz, area
         "normal": gl.texture(size, 4, "nu2"),       # octahedral (texel_maps.glsl), spread
@@ -200,7 +201,6 @@ def allocate_page(gl, settings, size):
         area_only=gl.framebuffer([textures["position"]]),
         level_only=gl.framebuffer([textures["level"]]),
         textures=textures)
-    block = 1 << settings.shoot_level
     level = (-(-size[0] // block), -(-size[1] // block))
     # The arg-max pyramid stops at the grid of regions that selection reads back.
     while True:
@@ -369,11 +369,11 @@ def bent_normal_codes(normal_sum, moments, sample_normals):
 
 def measure_emission(state):
     """Emitted power as the texels hold it (the unshot maps start as the emission), summed
-    in double precision; the receiving texels, and the blocks at the shooting level that hold
-    texels (a mean block's share of the power, for selection.block_region). Keeps each
-    page's areas, atlas layout and emitting texels."""
+    in double precision; the receiving texels, and the patches (blocks at the patch level)
+    that hold texels (a mean patch's share of the power, for selection.block_region). Keeps
+    each page's areas, atlas layout and emitting texels."""
     energy = Energy(emitted_maps=np.zeros(3), texel_count=0, shooting_blocks=0)
-    block = 1 << state.settings.shoot_level
+    block = 1 << state.patch_level
     for page_index, page in enumerate(state.pages):
         area = read_map(page.textures["position"])[..., 3:4]
         height, width = area.shape[:2]

@@ -1,7 +1,10 @@
 """Receiver update and lights: every receiving texel gathers a shot's light against the
 visibility map (receive_patch.frag for a patch, receive_light.frag for a point, spot or sun
 light) by additive blending into its page's irradiance and unshot maps; a patch first takes
-what it shoots from its texels. The lights' views, uniforms and power, and the sky as suns."""
+what it shoots from its texels. The pass draws only the tiles of texels that can receive the
+shot: not those behind a patch's plane, nor flat ones facing away from it. The
+lights' views, uniforms and power, and the sky as suns."""
+from dataclasses import dataclass
 import math
 
 import moderngl
@@ -10,10 +13,107 @@ import numpy as np
 from .geometry import frame_around
 from .gpu import render_state, set_uniform
 from .scene import SpotLight, SunLight
-from .state import NO_SURFACE, View, blend_points
+from .state import NO_SURFACE, View, blend_points, decode_normals, read_map
 
 # u_light_kind of receive_light.frag.
 POINT_LIGHT, SPOT_LIGHT, SUN_LIGHT = 0, 1, 2
+# The receiver pass draws the page in tiles of this many texels a side, those that can
+# receive the shot (a chart can span pages' worth of texels; tiles bound few texels each).
+TILE = 8
+# A tile is flat (ReceiverTiles.normal) where its texels' normals are within this of their
+# mean.
+FLAT_NORMAL_DEVIATION = 1e-3
+# receiver_boxes.vert's vertices: two triangles per tile, (x, y) each from its box.
+BOX_CORNERS = np.array([(0, 1), (2, 1), (2, 3), (0, 1), (2, 3), (0, 3)])
+
+
+@dataclass
+class ReceiverTiles:
+    """Per tile of the pages holding texels, what decides whether it can receive a shot: its
+    page, its texel box, its texels' world bounds grown by their largest side (subdivided
+    texels gather off their sample points, in their tangent plane: a flat tile's bounds grow
+    along its plane only), and, for a flat tile, its normal, the least of n . p over its
+    texels, and how far its texels' normals stray from n (0 normal: not flat)."""
+    page: np.ndarray            # (T,)
+    boxes: np.ndarray           # (T, 4) x0, y0, x1, y1 in texels
+    low: np.ndarray             # (T, 3)
+    high: np.ndarray            # (T, 3)
+    normal: np.ndarray          # (T, 3)
+    nearest_plane: np.ndarray   # (T,)
+    normal_deviation: np.ndarray  # (T,)
+    vbo: object                 # the boxes drawn for a shot, BOX_CORNERS each
+    vaos: dict                  # per receiver program
+
+
+def create_tiles(state):
+    """The tiles of every page that hold texels, from the pages' maps."""
+    columns = [[] for _ in range(7)]
+    for index, page in enumerate(state.pages):
+        for column, values in zip(columns, _page_tiles(index, page)):
+            column.append(values)
+    page, boxes, low, high, normal, nearest, deviation = (np.concatenate(c) for c in columns)
+    vbo = state.gl.buffer(reserve=max(len(page), 1) * len(BOX_CORNERS) * 2 * 4)
+    vaos = {kind: state.gl.vertex_array(state.programs[kind], [(vbo, "2f", "in_corner")])
+            for kind in ("patch", "light")}
+    return ReceiverTiles(page=page, boxes=boxes, low=low, high=high, normal=normal,
+                         nearest_plane=nearest, normal_deviation=deviation, vbo=vbo, vaos=vaos)
+
+
+def _page_tiles(index, page):
+    position = read_map(page.textures["position"]).astype(np.float64)
+    stored = read_map(page.textures["normal"])
+    height, width = position.shape[:2]
+    rows, cols = -(-height // TILE), -(-width // TILE)
+
+    def tiled(values, fill):   # (rows, cols, TILE * TILE, components)
+        padded = np.full((rows * TILE, cols * TILE) + values.shape[2:], fill, values.dtype)
+        padded[:height, :width] = values
+        return padded.reshape(rows, TILE, cols, TILE, -1).swapaxes(1, 2).reshape(
+            rows * cols, TILE * TILE, -1)
+
+    held = tiled(position[..., 3:] > 0.0, False)[..., 0]
+    points = tiled(position[..., :3], np.nan)
+    normals = tiled(decode_normals(stored), np.nan)
+    bent = tiled(stored[..., 2:3] < 1.0, False)[..., 0]
+    side = np.sqrt(tiled(position[..., 3:], 0.0)[..., 0].max(axis=1))
+    keep = held.any(axis=1)
+    held, points, normals, bent, side = held[keep], points[keep], normals[keep], bent[keep], \
+        side[keep]
+    points = np.where(held[..., None], points, np.nan)
+    normals = np.where(held[..., None], normals, np.nan)
+    mean = np.nanmean(normals, axis=1)
+    mean /= np.maximum(np.linalg.norm(mean, axis=1, keepdims=True), 1e-30)
+    deviation = np.nanmax(np.linalg.norm(normals - mean[:, None], axis=2), axis=1)
+    # A texel whose surface bends gathers at other normals (receiver_common.glsl).
+    flat = (deviation <= FLAT_NORMAL_DEVIATION) & ~(bent & held).any(axis=1)
+    # The most a point off a texel's sample point, in its tangent plane, moves along each
+    # axis.
+    reach = side[:, None] * np.where(
+        flat[:, None], np.sqrt(np.maximum(1.0 - mean * mean, 0.0)) + deviation[:, None], 1.0)
+    tile = np.flatnonzero(keep)
+    x0, y0 = (tile % cols) * TILE, (tile // cols) * TILE
+    boxes = np.stack([x0, y0, np.minimum(x0 + TILE, width), np.minimum(y0 + TILE, height)],
+                     axis=1)
+    return (np.full(len(tile), index), boxes, np.nanmin(points, axis=1) - reach,
+            np.nanmax(points, axis=1) + reach, np.where(flat[:, None], mean, 0.0),
+            np.nanmin(np.einsum("tkc,tc->tk", points, mean), axis=1), deviation)
+
+
+def receiving_tiles(tiles, shooter, epsilon):
+    """Which tiles can receive from a patch shooter (receive_patch.frag gives nothing to a
+    point at most ``epsilon`` above its plane, nor one whose normal does not face it)."""
+    n, centre = shooter.frame[:, 2], shooter.centre
+    middle, half = 0.5 * (tiles.high + tiles.low), 0.5 * (tiles.high - tiles.low)
+    in_front = (middle - centre) @ n + half @ np.abs(n) > epsilon
+    # A flat tile faces away where n_t . (p - centre) >= 0 at every texel: its nearest
+    # plane's value bounds n . p, and a texel normal's stray d changes the product by at
+    # most d |p - centre|.
+    reach = np.linalg.norm(np.maximum(np.abs(tiles.low - centre),
+                                      np.abs(tiles.high - centre)), axis=1)
+    flat = tiles.normal.any(axis=1)
+    away = flat & (tiles.nearest_plane - tiles.normal @ centre
+                   - tiles.normal_deviation * reach > epsilon)
+    return in_front & ~away
 
 
 def take_unshot(state, shooter):
@@ -73,16 +173,28 @@ def light_power(light, radius):
     return light.emitted_power()
 
 
-def update(state, visibility, view, kind):
-    """Every page's receivers gather the shot (program ``kind``: "patch" or "light")."""
+def update(state, visibility, view, kind, receiving=None):
+    """The receivers gather the shot (program ``kind``: "patch" or "light"): the tiles
+    ``receiving`` marks (receiving_tiles), or all."""
     program = state.programs[kind]
+    tiles = state.receiver_tiles
     view.set_uniforms(program, state)
+    chosen = np.arange(len(tiles.page)) if receiving is None else np.flatnonzero(receiving)
+    chosen = chosen[np.argsort(tiles.page[chosen], kind="stable")]
+    corners = tiles.boxes[chosen][:, BOX_CORNERS].astype(np.float32)   # (tiles, 6, 2)
+    if not len(corners):
+        return
+    tiles.vbo.write(corners.tobytes())
+    ends = np.searchsorted(tiles.page[chosen], np.arange(len(state.pages) + 1))
     with render_state(state.ctx, blend=moderngl.FUNC_ADD):
         visibility.texture.use(location=0)
-        for page in state.pages:
+        for page, (start, end) in zip(state.pages, zip(ends[:-1], ends[1:])):
+            if start == end:
+                continue
             page.receivers.use()
             page.use_maps("position", "normal", "material", "level")
-            state.fullscreen[kind].render(moderngl.TRIANGLES, vertices=3)
+            tiles.vaos[kind].render(moderngl.TRIANGLES, first=int(start) * len(BOX_CORNERS),
+                                     vertices=int(end - start) * len(BOX_CORNERS))
 
 
 def sky_suns(radiance, count):

@@ -8,6 +8,7 @@ from typing import NamedTuple
 import moderngl
 import numpy as np
 
+from .settings import MAX_SHOOT_LEVEL
 from .state import Region
 
 # One selection (an arg-max read-back, which waits for the GPU) picks up to
@@ -15,6 +16,9 @@ from .state import Region
 # whose power is at least this share of the strongest one's. Each shot then takes exactly the
 # energy it read; what its texels receive meanwhile stays unshot for a later shot.
 BATCH_MIN_SHARE = 0.25
+# A patch's side with Settings.patch_size 0 (automatic): that of a square of the scene's
+# surface area over this many. The Cornell box's at 60 texels per metre is 4 texels wide.
+AUTOMATIC_PATCHES = 512
 # The adaptive shooting level coarsens a shot by one level (4x the texels) for every 4x less
 # power than the strongest patch shot had, by at most this many levels.
 MAX_COARSER_LEVELS = 2
@@ -38,6 +42,18 @@ class ShotQueue:
     pending: list = field(default_factory=list)    # lights not yet queued
     strongest_patch: float = 0.0
     strongest_shot: float = 0.0
+
+
+def patch_level(settings, surface_area):
+    """The mip level whose blocks shoot: the one whose side (2^level texels of 1 / density
+    metres) is nearest the patch size in a log scale, never finer than shoot_level. A
+    patch's world size, not its texels, sets the shots: doubling the density adds a level."""
+    size = settings.patch_size or math.sqrt(surface_area / AUTOMATIC_PATCHES)
+    texels = size * settings.texel_density
+    if texels <= 1.0:
+        return settings.shoot_level
+    level = int(math.floor(math.log2(texels) + 0.5))
+    return min(max(level, settings.shoot_level), max(settings.shoot_level, MAX_SHOOT_LEVEL))
 
 
 def measure(state):
@@ -89,8 +105,9 @@ def block_region(state, energy, queue, candidate):
     sub-blocks k levels finer, down to single texels: a strong shooter's visibility from one
     centre would cut its penumbrae into steps (the Cornell box's light, 57 times a mean
     block; not a furnace's walls, nor an emitter that is half the scene's blocks). With the
-    adaptive shooting level a weak block shoots as a coarser block around it."""
-    level = state.settings.shoot_level
+    adaptive shooting level a weak block shoots as a coarser block around it. Blocks are
+    patches (patch_level): the refinement follows their power, not their texels."""
+    level = state.patch_level
     power = candidate.power
     ratio = power * energy.shooting_blocks / max(energy.emitted_scalar, 1e-30)
     finer = min(level, int(math.log(ratio, 4.0))) if ratio >= 4.0 else 0
@@ -101,7 +118,7 @@ def block_region(state, energy, queue, candidate):
 
 
 def _coarser_levels(settings, queue, power):
-    """Adaptive shooting level: how many levels coarser than shoot_level this shot is, from
+    """Adaptive shooting level: how many levels coarser than the patch level this shot is, from
     its block's power against the strongest patch shot so far."""
     if not settings.adaptive_shoot_level:
         return 0

@@ -135,11 +135,13 @@ SUBDIVISION_CHOICES = (
 PROJECTIONS = tuple(choice.identifier for choice in PROJECTION_CHOICES)
 SUBDIVISIONS = tuple(choice.identifier for choice in SUBDIVISION_CHOICES)
 MAX_SUBDIVISION_LEVEL = 3
-# Max Shots 0 stops a bake at this many shots per shooting block (4^shoot_level texels), at
-# least AUTOMATIC_MIN_SHOTS: the shots to reach the threshold grow with the blocks, a small
-# scene's blocks shoot many times over (bench/bench_shot_limit.py, BENCHMARKS.md).
+# Max Shots 0 stops a bake at this many shots per block of 4^shoot_level texels, at least
+# AUTOMATIC_MIN_SHOTS: measured when the blocks were what shot (bench/bench_shot_limit.py,
+# BENCHMARKS.md); the patches that shoot now hold as many blocks or more, so the limit only
+# grows looser.
 AUTOMATIC_SHOTS_PER_BLOCK = 20
 AUTOMATIC_MIN_SHOTS = 10000
+MAX_SHOOT_LEVEL = 6
 
 # Settings has its fields in this order (and report.json its settings).
 SETTINGS = (
@@ -163,9 +165,15 @@ SETTINGS = (
             "instead of 1.2-1.8 % at 128, the bake 1.2 times as long",
             exposed=Exposed(label="Hemicube Resolution", option="--hemicube",
                             subtype='PIXEL')),
-    Setting(name="shoot_level", kind=int, default=2, minimum=0, maximum=6,
-            help="Mip level shot from: a shooter spans 2^level texels",
+    Setting(name="shoot_level", kind=int, default=2, minimum=0, maximum=MAX_SHOOT_LEVEL,
+            help="The finest mip level shot from: a shooter spans at least 2^level texels",
             exposed=Exposed(label="Shoot Level", option="--shoot-level")),
+    # Shots then follow the scene's light and geometry, not how finely texels sample it.
+    Setting(name="patch_size", kind=float, default=0.0, unit="metres", minimum=0.0,
+            maximum=1000.0, soft_maximum=10.0, help="Side of the patches that shoot (blocks of texels whose "
+            "side is nearest it, no finer than Shoot Level's); 0 sizes them from the scene's "
+            "surface area",
+            exposed=Exposed(label="Patch Size", option="--patch-size", digits=3)),
     Setting(name="threshold", kind=float, default=0.01, minimum=0.0, maximum=0.99,
             help="Stop when this fraction of the emitted power is left unshot (sunlight that "
             "misses the scene does not count). At 0.01 the Cornell box at 160 texels per "

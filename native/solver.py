@@ -292,6 +292,8 @@ class Solver:
         self.atlas = state.atlas = _chart(scene, settings, settings.texel_density)
         # The GPU works on the charts packed tight; results go back to self.atlas's layout.
         state.packed, state.texel_map = tight_packing(self.atlas, 1 << settings.shoot_level)
+        state.patch_level = selection.patch_level(
+            settings, float(scene.triangle_area[state.packed.triangles].sum()))
         self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
         self._memory_bytes = memory.memory_needed(state.packed, settings, state.map_size)
         memory.check_memory(state.packed, settings, self._memory_bytes,
@@ -311,8 +313,8 @@ class Solver:
 
         self._visibility = visibility.create(state)
         self._gaps = thin_gaps.create(state)
-        block = 1 << (settings.shoot_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
-                                              else 0))
+        block = 1 << (state.patch_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
+                                           else 0))
         # What a shot changes in place (state.blend_points): grows with the largest such set.
         state.points_vbo = gl.buffer(reserve=block * block * POINT_BYTES)
         self._shooters = shooters.ShooterCaches(
@@ -344,6 +346,7 @@ class Solver:
 
     def _measure_emission(self):
         self._energy = preprocess.measure_emission(self._state)
+        self._state.receiver_tiles = receivers.create_tiles(self._state)
 
     def _fits(self, atlas, map_size):
         return memory.fits(atlas, self.settings, map_size,
@@ -437,7 +440,9 @@ class Solver:
         self._maybe_subdivide(view, float(np.mean(shot_power)), clip_below=True)
         receivers.take_unshot(state, shooter)
         receivers.set_patch_uniforms(state, shooter)
-        self._timed("receivers", receivers.update, state, self._visibility, view, "patch")
+        receiving = receivers.receiving_tiles(state.receiver_tiles, shooter, state.bounds.epsilon)
+        self._timed("receivers", receivers.update, state, self._visibility, view, "patch",
+                    receiving)
         if shooter.extent is not None:
             self._timed("receivers", thin_gaps.close, state, self._gaps, shooter)
 

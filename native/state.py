@@ -69,6 +69,8 @@ class BakeState:
     atlas: object = None        # the lightmaps' layout (Solver.atlas)
     packed: object = None       # the charts packed tight: the pages the GPU works on
     texel_map: object = None    # packed page texels -> atlas texels (atlas.tight_packing)
+    patch_level: int = 0        # the mip level whose blocks shoot (selection.patch_level)
+    receiver_tiles: object = None  # receivers.ReceiverTiles: what the receiver pass draws
     programs: dict = None
     fullscreen: dict = None     # vertex arrays drawing one screen-filling triangle
     material_textures: dict = None   # Scene's texture lists, by name, on the GPU
@@ -82,7 +84,7 @@ class Energy:
     """Power totals (W, RGB, double precision) and the texel counts the stages measure by."""
     emitted_maps: np.ndarray    # what the emitting texels hold
     texel_count: int            # receiving texels
-    shooting_blocks: int        # blocks at the shooting level holding texels
+    shooting_blocks: int        # patches (blocks at the patch level) holding texels
     emitted: np.ndarray = None  # the texels' and the lights'
     emitted_scalar: float = 0.0
     shot_power: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -102,6 +104,8 @@ class VisibilityMap:
     occluders: object           # geometry.TrianglePlanes of the occluding triangles
     caster_levels: np.ndarray   # per occluder its subdivision level (tessellated hemisphere)
     caster_vbo: object
+    cluster_low: np.ndarray     # (C, 3) bounds of each cluster of occluders (visibility.py)
+    cluster_high: np.ndarray
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,8 @@
 """Visibility: the distance map around a shot's eye (the hemicube's faces, one or two
 stereographic or nonlinear hemispheres, or the sun's orthographic window), into which every
-occluding triangle is drawn with its surface number; the receivers test against it."""
+occluding triangle is drawn with its surface number; the receivers test against it. The
+occluders lie in clusters of nearby triangles: a one-sided shooter draws only the clusters
+that reach above its plane."""
 import moderngl
 import numpy as np
 
@@ -20,6 +22,10 @@ CLEAR_DISTANCE = 3.0e38
 DRAWN_DISTANCE = 1e38
 # A scene without occluders draws one triangle out here, which keeps the buffers valid.
 FAR_AWAY = 1e30
+# Triangles per cluster (consecutive in the vertex buffer, in Morton order of their centres).
+CLUSTER_TRIANGLES = 64
+# Bits per axis of the Morton code that orders the triangles into clusters.
+MORTON_BITS = 10
 
 
 def create(state):
@@ -35,6 +41,8 @@ def create(state):
     if not len(positions):
         positions = np.full((1, 3, 3), FAR_AWAY, dtype="f4")
         surfaces = np.zeros(1)
+    order = _morton_order(positions.mean(axis=1))
+    positions, surfaces = positions[order], surfaces[order]
     scene_vbo = gl.buffer(positions.tobytes())
     surface_vbo = gl.buffer(np.repeat(surfaces, 3).astype("f4").tobytes())
     scene_content = [(scene_vbo, "3f", "in_position"), (surface_vbo, "1f", "in_surface")]
@@ -47,10 +55,49 @@ def create(state):
         programs["hemisphere_tessellated"],
         scene_content + [(caster_vbo, "1f", "in_caster_level")])
     # The occluders' planes keep a shooter on one side of what crosses it (shooters).
+    low, high = _cluster_bounds(positions.astype(np.float64))
     return VisibilityMap(texture=texture, framebuffer=framebuffer, vaos=vaos,
                          triangle_vertices=positions.shape[0] * 3,
                          occluders=TrianglePlanes(positions.astype(np.float64)),
-                         caster_levels=caster_levels, caster_vbo=caster_vbo)
+                         caster_levels=caster_levels, caster_vbo=caster_vbo,
+                         cluster_low=low, cluster_high=high)
+
+
+def _morton_order(points):
+    """The order of ``points`` (N, 3) along a Z-order curve over their bounds: neighbours in
+    it lie near in space."""
+    low, high = points.min(axis=0), points.max(axis=0)
+    cells = ((points - low) / np.maximum(high - low, 1e-30) * ((1 << MORTON_BITS) - 1))
+    cells = cells.astype(np.int64)
+    code = np.zeros(len(points), dtype=np.int64)
+    for bit in range(MORTON_BITS):
+        for axis in range(3):
+            code |= ((cells[:, axis] >> bit) & 1) << (3 * bit + axis)
+    return np.argsort(code, kind="stable")
+
+
+def _cluster_bounds(corners):
+    """(low, high) (C, 3) of each cluster of CLUSTER_TRIANGLES consecutive triangles."""
+    count = -(-len(corners) // CLUSTER_TRIANGLES)
+    low, high = np.empty((count, 3)), np.empty((count, 3))
+    for cluster in range(count):
+        part = corners[cluster * CLUSTER_TRIANGLES:(cluster + 1) * CLUSTER_TRIANGLES]
+        low[cluster], high[cluster] = part.min(axis=(0, 1)), part.max(axis=(0, 1))
+    return low, high
+
+
+def _vertex_runs(visibility, view):
+    """(first vertex, vertices) of the runs of consecutive clusters that reach above the
+    view's plane (the shader clips the rest of a triangle below it)."""
+    n = view.frame[:, 2]
+    middle = 0.5 * (visibility.cluster_high + visibility.cluster_low)
+    half = 0.5 * (visibility.cluster_high - visibility.cluster_low)
+    above = (middle - view.eye) @ n + half @ np.abs(n) >= 0.0
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], above.astype(np.int8), [0]])))
+    per_cluster = 3 * CLUSTER_TRIANGLES
+    return [(int(start) * per_cluster,
+             min(int(end) * per_cluster, visibility.triangle_vertices) - int(start) * per_cluster)
+            for start, end in zip(edges[::2], edges[1::2])]
 
 
 def program_for(settings, orthographic):
@@ -82,8 +129,11 @@ def render(state, visibility, view, *, faces, clip_below):
     visibility.framebuffer.use()
     visibility.framebuffer.clear(CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE)
     clip = clip_below or name.startswith("hemisphere")
+    runs = (_vertex_runs(visibility, view) if clip_below
+            else [(0, visibility.triangle_vertices)])
     with render_state(state.ctx, blend=moderngl.MIN, clip_distance=clip):
-        visibility.vaos[name].render(moderngl.TRIANGLES, vertices=visibility.triangle_vertices)
+        for first, vertices in runs:
+            visibility.vaos[name].render(moderngl.TRIANGLES, first=first, vertices=vertices)
 
 
 def covered_share(state, visibility):

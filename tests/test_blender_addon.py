@@ -399,7 +399,7 @@ def test_every_solver_setting_in_the_scene_reaches_the_native_settings():
         "shoot_level": 3, "threshold": 0.25, "max_shots": 77, "projection": "NONLINEAR",
         "neighbour_visibility": False, "subdivision": "ADAPTIVE", "subdivision_level": 3,
         "subdivision_shadow_min": 0.25, "subdivision_shadow_max": 0.75,
-        "adaptive_shoot_level": True, "ambient": False,
+        "adaptive_shoot_level": True, "ambient": False, "patch_size": 0.5,
     }
     native = blender_session.addon().native
     exposed = {field.name for field in dataclasses.fields(native.Settings)

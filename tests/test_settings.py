@@ -85,6 +85,7 @@ def refusal(settings):
 INTENDED = {   # name: (default, minimum, maximum)
     "texel_density": (20.0, 0.01, None), "max_atlas_size": (4096, 16, None),
     "padding": (2, 1, None), "hemicube_resolution": (0, 8, 4096), "shoot_level": (2, 0, 6),
+    "patch_size": (0.0, 0.0, 1000.0),
     "threshold": (0.01, 0.0, 0.99), "max_shots": (0, 1, 2**31 - 1),
     "memory_limit": (4 << 30, 1, None), "sky_directions": (256, 1, 65536),
     "projection": ("HEMICUBE", None, None), "neighbour_visibility": (True, None, None),

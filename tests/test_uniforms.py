@@ -97,9 +97,9 @@ def test_bakes_through_every_program_set_declared_uniforms_only(ctx, gl_clean, m
                 finally:
                     solver.release()
     assert made == set(set_on)   # every program had uniforms set
-    patch = set_on["fullscreen.vert + receive_patch.frag"]
+    patch = set_on["receiver_boxes.vert + receive_patch.frag"]
     assert any(tuple(extent) != NO_SURFACE for extent in patch["u_surface_extent"])
-    light = set_on["fullscreen.vert + receive_light.frag"]
+    light = set_on["receiver_boxes.vert + receive_light.frag"]
     assert set(light["u_light_kind"]) == {0, 1, 2}
     count = set_on["raster.vert + raster.geom + shadow_count.frag"]
     assert set(count["u_count_hidden"]) == {0, 1}
