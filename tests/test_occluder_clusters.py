@@ -3,7 +3,7 @@ occluder in front of it still hides what lies behind."""
 import numpy as np
 
 import scenes
-from native import Settings, Solver, visibility
+from native import Settings, Solver
 from native.samples import SceneBuilder
 
 
