@@ -28,6 +28,23 @@ def look_at(eye, target, up, fov_degrees, aspect, near=0.01, far=100.0):
     return projection @ view
 
 
+def scene_emission(scene):
+    """Each triangle's emitted radiance (T, 3): its emission, times its emission texture at
+    the triangle's centre where it has one (a preview's flat shade of a textured emitter)."""
+    emission = np.array(scene.emission, dtype=np.float64)
+    index = scene.emission_texture_index
+    if index is None or not scene.emission_textures:
+        return emission
+    centres = scene.albedo_uv.mean(axis=1)
+    for page, texture in enumerate(scene.emission_textures):
+        mine = index == page
+        height, width = texture.shape[:2]
+        column = np.clip((centres[mine, 0] * width).astype(np.int64), 0, width - 1)
+        row = np.clip((centres[mine, 1] * height).astype(np.int64), 0, height - 1)
+        emission[mine] *= texture[row, column, :3]
+    return emission
+
+
 def render_preview(solver, lightmaps, eye, target, up=(0.0, 1.0, 0.0), fov=40.0,
                    size=(512, 512), supersample=2):
     """Linear radiance (height, width, 3), top row first, of the scene seen from ``eye``."""
@@ -38,7 +55,7 @@ def render_preview(solver, lightmaps, eye, target, up=(0.0, 1.0, 0.0), fov=40.0,
     lightmap[atlas.triangles, :, :2] = uv
     lightmap[atlas.triangles, :, 2] = atlas.page[:, None]
     lightmap[~scene.receive, :, 2] = -1.0
-    emission = np.concatenate([scene.emission, scene.emission_two_sided[:, None]], axis=1)
+    emission = np.concatenate([scene_emission(scene), scene.emission_two_sided[:, None]], axis=1)
     vertices = np.concatenate([scene.vertices[scene.triangles], lightmap,
                                np.repeat(emission[:, None, :], 3, axis=1)], axis=2)
     # A triangle with a mirrored copy (Scene.with_back_faces) and the copy are each drawn from

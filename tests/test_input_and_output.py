@@ -233,3 +233,30 @@ def test_preview_culls_only_faces_that_have_a_mirrored_copy(ctx, gl_clean):
         assert 0.0 < centre.max() < 1.6
     finally:
         solver.release()
+
+
+def test_preview_shows_an_emitter_at_its_textured_radiance(ctx, gl_clean):
+    """An emitter whose radiance comes from an emission texture (the add-on's Cycles
+    evaluation gives every emitter one) shows emission x texture in the preview: a light of
+    emission 1 and a texture of 6 seen face on is 6, not 1."""
+    import dataclasses
+    from native.preview import render_preview
+    builder = SceneBuilder()
+    builder.quad("floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], (0.5,) * 3)
+    builder.quad("light", [(-.3, -.3, 1), (-.3, .3, 1), (.3, .3, 1), (.3, -.3, 1)], (0.0,) * 3,
+                 (1.0,) * 3, two_sided=False)
+    scene = builder.build()
+    light = np.array(scene.object_names)[scene.object_index] == "light"
+    scene = dataclasses.replace(
+        scene, albedo_uv=np.full((len(scene.triangles), 3, 2), 0.5),
+        emission_texture_index=np.where(light, 0, -1),
+        emission_textures=[np.full((4, 4, 3), 6.0, dtype=np.float32)])
+    solver = Solver(scene, Settings(texel_density=10, max_shots=20), ctx=ctx)
+    try:
+        solver.run()
+        view = render_preview(solver, solver.result(), eye=(0.0, 0.0, 0.5),
+                              target=(0.0, 0.0, 1.0), up=(0.0, 1.0, 0.0), fov=20.0,
+                              size=(16, 16), supersample=1)
+        np.testing.assert_allclose(view[8, 8], 6.0, rtol=1e-3)
+    finally:
+        solver.release()
