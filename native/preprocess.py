@@ -232,7 +232,7 @@ def rasterize(state):
     per_corner = lambda values: np.repeat(values[:, None, :], 3, axis=1)
     vertex_data = np.concatenate([
         atlas.texels, positions, normals, tex_uv, per_corner(scene.albedo[tris]),
-        per_corner(scene.reflectance[tris]), per_corner(scene.emission[tris]),
+        per_corner(scene.reflected()[tris]), per_corner(scene.emission[tris]),
         per_corner((scene.receive * state.surfaces)[tris, None].astype(float)),
     ], axis=2).astype("f4")
     # Draw in runs of (page, material textures).

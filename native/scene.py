@@ -83,8 +83,9 @@ class Scene:
     vertices (V, 3), triangles (T, 3) vertex indices, counter-clockwise seen from the front.
     normals (V, 3), optional shading normals; face normals otherwise.
     albedo (T, 3) diffuse reflectance in [0, 1): what the lightmap shows, rho E / pi;
-    reflectance (T, 3) in [0, 1), the albedo by default: what the surface reflects into the
-    room, as if diffuse (more than the albedo where glossy layers reflect too); emission (T, 3) emitted radiance
+    reflectance (T, 3) in [0, 1): what the surface reflects into the room, as if diffuse (more
+    than the albedo where glossy layers reflect too); None (default): the albedo, whatever it
+    is when solved (reflected() resolves it); emission (T, 3) emitted radiance
     (Blender's emission colour x strength); emission_two_sided (T,) emits from both faces
     as Blender's emission shader does (default) or only from the front.
     receive (T,) gets a lightmap; non-receiving triangles still occlude and emit.
@@ -169,8 +170,10 @@ class Scene:
             return array
 
         self.albedo = per_triangle(self.albedo, 0.8, np.float64, 3)
-        self.reflectance = (self.albedo.copy() if self.reflectance is None
-                            else per_triangle(self.reflectance, 0.0, np.float64, 3))
+        # No copy of the albedo: one would go stale when the albedo is changed after
+        # construction (in place or by dataclasses.replace).
+        if self.reflectance is not None:
+            self.reflectance = per_triangle(self.reflectance, 0.0, np.float64, 3)
         self.emission = per_triangle(self.emission, 0.0, np.float64, 3)
         self.emission_two_sided = per_triangle(self.emission_two_sided, True, bool)
         self.receive = per_triangle(self.receive, True, bool)
@@ -235,12 +238,12 @@ class Scene:
                        int(np.argmax(degenerate)))
         self.triangle_area = area
 
-        for name, values in (("albedo", self.albedo), ("reflectance", self.reflectance),
+        for name, values in (("albedo", self.albedo), ("reflectance", self.reflected()),
                              ("emission", self.emission)):
             bad = ~np.isfinite(values).all(axis=1)
             if bad.any():
                 self._fail(f"{name} is not finite", int(np.argmax(bad)))
-        for name, values in (("albedo", self.albedo), ("reflectance", self.reflectance)):
+        for name, values in (("albedo", self.albedo), ("reflectance", self.reflected())):
             bad = ((values < 0.0) | (values >= 1.0)).any(axis=1)
             if bad.any():
                 triangle = int(np.argmax(bad))
@@ -343,6 +346,11 @@ class Scene:
             raise SceneError(f"{label}: spot size must be in (0, 180] degrees and blend in [0, 1]",
                              light.name)
 
+    def reflected(self):
+        """(T, 3): what each triangle reflects into the room, its reflectance or else its
+        albedo."""
+        return self.albedo if self.reflectance is None else self.reflectance
+
     def emitted_power(self):
         """Analytic RGB power (W) leaving the emitting triangles, plus point and spot lights.
         Suns are counted by the solver, which knows the area they cover."""
@@ -394,7 +402,8 @@ class Scene:
             emission_texture_index=extend(self.emission_texture_index,
                                           self.emission_texture_index[backs]),
             emission_textures=self.emission_textures,
-            reflectance=extend(self.reflectance, self.reflectance[backs]),
+            reflectance=None if self.reflectance is None else extend(
+                self.reflectance, self.reflectance[backs]),
             reflectance_texture_index=extend(self.reflectance_texture_index,
                                              self.reflectance_texture_index[backs]),
             reflectance_textures=self.reflectance_textures, lights=self.lights,

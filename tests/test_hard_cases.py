@@ -653,3 +653,28 @@ def test_furnace_reflects_its_reflectance_and_shows_its_albedo(ctx, gl_clean):
         solver.release()
     np.testing.assert_allclose(values[values[..., 3] == 1][:, :3], 0.5 * 5.0, rtol=0.005)
     assert ledger.imbalance() < 1e-4
+
+
+def _albedo_set_in_place(scene, albedo):
+    scene.albedo[:] = albedo
+    return scene
+
+
+@pytest.mark.parametrize("set_albedo", [
+    _albedo_set_in_place,
+    lambda scene, albedo: dataclasses.replace(scene, albedo=np.full((12, 3), albedo)),
+], ids=["in_place", "replace"])
+def test_furnace_reflects_an_albedo_changed_after_construction(ctx, gl_clean, set_albedo):
+    """A scene without a reflectance of its own reflects its albedo, also one changed after
+    the scene was made (a stale copy of the first albedo made a Cornell box whose light's
+    albedo was zeroed afterwards reflect 0.78 from the light). Closed cube, emission 1, albedo
+    0.5 changed to 0.3: radiance 1 / (1 - 0.3) arrives everywhere, a texel shows 0.3 of it."""
+    scene = set_albedo(scenes.furnace_cube(0.5), 0.3)
+    solver = Solver(scene, Settings(texel_density=8, threshold=0.002, hemicube_resolution=64,
+                                    ambient=False), ctx=ctx)
+    try:
+        solver.run()
+        values = solver.result()[0]
+    finally:
+        solver.release()
+    np.testing.assert_allclose(values[values[..., 3] == 1][:, :3], 0.3 / (1.0 - 0.3), rtol=0.005)
