@@ -77,14 +77,9 @@ def lightmap_atlas(scene, settings):
     scene = scene.with_back_faces()
     settings.validate()
 
-    def fits_at(density):
-        packed = tight_packing(_chart(scene, settings, density), 1 << settings.shoot_level)[0]
-        map_size = preprocess.visibility_map_size(
-            dataclasses.replace(settings, texel_density=density), scene)
-        needed = memory.memory_needed(packed, settings, map_size)
-        return needed <= settings.memory_limit
-
-    memory.check_surface_fits(scene, settings, fits_at)
+    # No GL context yet: the Solver checks the texture size limit too.
+    memory.check_surface_fits(scene, settings, lambda density: _fits_at(
+        scene, settings, density, max_texture_size=math.inf))
     return _chart(scene, settings, settings.texel_density)
 
 
@@ -92,6 +87,15 @@ def _chart(scene, settings, density):
     """The one call to build_atlas, so that the add-on's atlas and the Solver's are one."""
     return build_atlas(scene, density, settings.max_atlas_size, settings.padding,
                        align=1 << settings.shoot_level)
+
+
+def _fits_at(scene, settings, density, max_texture_size):
+    """Whether the packed atlas of ``density`` fits (memory's search for one that does); the
+    automatic hemicube resolution follows the density too."""
+    packed = tight_packing(_chart(scene, settings, density), 1 << settings.shoot_level)[0]
+    map_size = preprocess.visibility_map_size(
+        dataclasses.replace(settings, texel_density=density), scene)
+    return memory.fits(packed, settings, map_size, max_texture_size)
 
 
 class Solver:
@@ -353,12 +357,8 @@ class Solver:
                            self.ctx.info["GL_MAX_TEXTURE_SIZE"])
 
     def _fits_at(self, density):
-        """Whether the packed atlas of ``density`` fits (memory's search for one that does)."""
-        # The automatic hemicube resolution follows the density too.
-        map_size = preprocess.visibility_map_size(
-            dataclasses.replace(self.settings, texel_density=density), self.scene)
-        return self._fits(tight_packing(_chart(self.scene, self.settings, density),
-                                        1 << self.settings.shoot_level)[0], map_size)
+        return _fits_at(self.scene, self.settings, density,
+                        max_texture_size=self.ctx.info["GL_MAX_TEXTURE_SIZE"])
 
     def _light_power(self, light):
         return receivers.light_power(light, self._state.bounds.radius)
