@@ -197,8 +197,10 @@ SETTINGS = (
             exposed=Exposed(label="Projection", option="--projection")),
     # Section 5.2 of the paper.
     Setting(name="neighbour_visibility", kind=bool, default=True,
-            help="A receiver is visible when any of the 3x3 visibility texels around it sees "
-            "it, against dark speckles where the visibility map undersamples",
+            help="A receiver whose visibility texel an occluder within a map texel of it "
+            "covers (a silhouette it stands at) gets the share of the 3x3 texels around that "
+            "see it, against dark speckles where the map undersamples; shadows cast from "
+            "farther keep their edges",
             exposed=Exposed(label="Neighbour Visibility", option="--neighbour-visibility")),
     # ADAPTIVE finds each triangle's shadowed share of texels with occlusion queries, and
     # refines the triangles casting those shadows too.

@@ -102,16 +102,28 @@ float visible_from_eye(vec3 world, vec3 normal, float surface) {
     uint own_surface = uint(surface);
     // The receiver's own map texel first. If it fails, the receiver may be at a glancing
     // silhouette, the occluder's edge covering the texel's centre but not the receiver: it
-    // gets the share of the 3x3 texels around that see it. One loop and one call site of
+    // gets the share of the 3x3 texels around that see it. Only where the occluder, carried
+    // on at its own slope across those texels, comes within a map texel's reach of the
+    // receiver: a shadow cast from farther is sharp in the map, and the vote would only light
+    // its edge, a texel's width of every shadow brighter. One loop and one call site of
     // texel_sees(), for llvmpipe's sake as in receiver_common.glsl.
     float seen = 0.0;
+    vec2 occluder = vec2(0.0);   // the own map texel's stored distance and surface key
+    float occluder_slope = 0.0;  // how far the occluder's distance changes across the 3x3
     int last_neighbour = u_neighbour_visibility != 0 ? 9 : 0;
     for (int k = -1; k < last_neighbour; ++k) {
         ivec2 offset = k < 0 ? ivec2(0) : ivec2(k % 3 - 1, k / 3 - 1);
         ivec3 n = ivec3(clamp(texel.xy + offset, ivec2(0), ivec2(last)), texel.z);
         bool sees = texel_sees(n, local, local_normal, own, own_surface, tolerance);
-        if (k < 0 && sees) return 1.0;
-        if (k >= 0 && sees) seen += 1.0;
+        vec2 stored = texelFetch(u_visibility, n, 0).rg;
+        if (k < 0) {
+            if (sees) return 1.0;
+            occluder = vec2(stored.r, uintBitsToFloat(floatBitsToUint(stored.g) & 0x1FFFu));
+        } else {
+            if (sees) seen += 1.0;
+            if ((floatBitsToUint(stored.g) & 0x1FFFu) == floatBitsToUint(occluder.g))
+                occluder_slope = max(occluder_slope, abs(stored.r - occluder.r));
+        }
     }
-    return seen / 9.0;
+    return own - occluder.r <= 2.0 * (tolerance.reach + occluder_slope) ? seen / 9.0 : 0.0;
 }

@@ -62,20 +62,21 @@ def perpendicular_form_factor(W, H):
 
 def polygon_form_factors(points, normals, polygon):
     """Lambert's formula for many elements at once: (N, 3) points with unit normals to one
-    planar polygon. Elements in the polygon's plane get 0 (a surface does not see itself)."""
-    polygon = np.asarray(polygon, float)
-    plane = np.cross(polygon[1] - polygon[0], polygon[2] - polygon[0])
-    plane /= np.linalg.norm(plane)
+    planar polygon, (K, 3), or to a polygon of their own each, (N, K, 3). Elements in the
+    polygon's plane get 0 (a surface does not see itself)."""
+    polygon = np.broadcast_to(np.asarray(polygon, float), (len(points),) + np.shape(polygon)[-2:])
+    plane = np.cross(polygon[:, 1] - polygon[:, 0], polygon[:, 2] - polygon[:, 0])
+    plane /= np.linalg.norm(plane, axis=1, keepdims=True)
     total = np.zeros(len(points))
-    for i in range(len(polygon)):
-        a = polygon[i] - points
-        b = polygon[(i + 1) % len(polygon)] - points
+    for i in range(polygon.shape[1]):
+        a = polygon[:, i] - points
+        b = polygon[:, (i + 1) % polygon.shape[1]] - points
         a /= np.linalg.norm(a, axis=1, keepdims=True)
         b /= np.linalg.norm(b, axis=1, keepdims=True)
         g = np.cross(a, b)
         s = np.linalg.norm(g, axis=1)
         total += np.arctan2(s, (a * b).sum(axis=1)) * (normals * g).sum(axis=1) / np.maximum(s, 1e-300)
-    coplanar = np.abs((points - polygon[0]) @ plane) < 1e-6
+    coplanar = np.abs(((points - polygon[:, 0]) * plane).sum(axis=1)) < 1e-6
     return np.where(coplanar, 0.0, np.abs(total) / (2 * math.pi))
 
 

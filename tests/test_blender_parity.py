@@ -1,7 +1,7 @@
 """Luxel against Cycles inside Blender, one scene per kind of light: ``bpy.ops.luxel.bake()``, then
 a Cycles DIFFUSE bake (direct + indirect + colour) of every receiving object into the same
 lightmap UVs (addon/reference.py), then each object's mean reflected radiance over the texels
-Cycles covered, Luxel's within 5 % of Cycles' per RGB channel. Channels far darker than the
+Cycles covered, Luxel's within 5 % of Cycles' per RGB channel (the Cornell box: 2 %). Channels far darker than the
 scene's brightest object compare with an absolute tolerance instead.
 
 Cycles' own noise on an object mean, measured once as the spread of 4 seeds at these sample
@@ -22,6 +22,10 @@ bpy = blender_session.blender()
 reference = importlib.import_module(blender_session.MODULE + ".addon.reference")
 
 RELATIVE = 0.05          # of Cycles' mean, per channel
+# The Cornell box at the defaults but its density (30 texels/m) and threshold (0.005): issue 26's
+# box at 50 k texels in small. Its floor was 2.6 % over Cycles while the 3x3 neighbour vote lit
+# a map texel's width of every shadow edge.
+RELATIVE_BY_CASE = {"cornell-box": 0.02}
 ABSOLUTE = 0.01          # of the brightest object's mean in the same channel
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -77,14 +81,14 @@ def _rgb(values, digits=4):
     return " ".join(f"{v:.{digits}f}" for v in values)
 
 
-def assert_close(means, expected_objects):
+def assert_close(means, expected_objects, relative=RELATIVE):
     assert set(means) == expected_objects
     for m in means.values():
         assert m.texels >= 20, f"{m.name}: Cycles covered only {m.texels} texels"
     brightest = np.max([m.cycles for m in means.values()], axis=0)
     failures = []
     for m in means.values():
-        allowed = np.maximum(RELATIVE * m.cycles, ABSOLUTE * brightest)
+        allowed = np.maximum(relative * m.cycles, ABSOLUTE * brightest)
         if np.any(np.abs(m.luxel - m.cycles) > allowed):
             failures.append(f"{m.name}: Luxel {_rgb(m.luxel)}, Cycles {_rgb(m.cycles)}, "
                             f"ratio {_rgb(m.ratio, 3)}")
@@ -96,7 +100,7 @@ def test_object_means_match_cycles(case):
     build, samples, bounces, objects = CASES[case]
     means = bake_both(build, samples, bounces)
     print_table(means)
-    assert_close(means, objects)
+    assert_close(means, objects, relative=RELATIVE_BY_CASE.get(case, RELATIVE))
 
 
 # An area light of power P emits P whatever its shape: a lone floor 1 m under it gets the same

@@ -200,7 +200,9 @@ def test_a_strong_light_casts_its_penumbra_from_its_texels(ctx, gl_clean, projec
     under the light's centre. A floor point sees the part of the light its shadow line
     leaves, so it gets rho L F of that clipped square (Lambert). The light, 37 times a mean
     block's share of the power, shoots texel by texel: every penumbra texel is within 10 % of
-    the fully lit value (median 4.7 %, worst 6.8 %; worst 20 % shot as 4 x 4 blocks)."""
+    the fully lit value (worst 6.8 %, half a step of the 8 texels' staircase; worst 20 % shot
+    as 4 x 4 blocks), and on average within 1 % (0.00 %; +1.6 % when the neighbour vote lit a
+    map texel's width of each texel's shadow)."""
     albedo, half, light_z, plate_z = 0.5, 0.1, 1.0, 0.5
     light = [(-half, -half, light_z), (-half, half, light_z), (half, half, light_z),
              (half, -half, light_z)]   # faces the floor
@@ -224,9 +226,9 @@ def test_a_strong_light_casts_its_penumbra_from_its_texels(ctx, gl_clean, projec
         p, up, [(max(-half, -p[0]), -half, light_z), (max(-half, -p[0]), half, light_z),
                 (half, half, light_z), (half, -half, light_z)]) for p in position[penumbra]])
     lit = albedo * analytic.polygon_form_factor(np.array([0.2, 0.0, 0.0]), up, light)
-    error = np.abs(value[penumbra] - expected) / lit
-    assert np.median(error) < 0.06
-    assert error.max() < 0.10
+    error = (value[penumbra] - expected) / lit
+    assert abs(error.mean()) < 0.01
+    assert np.abs(error).max() < 0.10
 
 
 def test_two_sided_emitter_lights_both_sides_one_sided_only_its_front(ctx, gl_clean, projection):
