@@ -141,12 +141,16 @@ def make_shooter(state, caches, region, maps, charts):
     else:
         quad = shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
                             total_area, centre)
+    surface = int(maps.surface[strongest])
     return Shooter(
         page=page, texels=texels + origin,
         centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
         radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
-        albedo=(albedo[members] * weights).sum(axis=0) / total_area,
-        surface=int(maps.surface[strongest]))
+        # Texels that do not receive (surface 0: an emitter's back) take no light, so a thin
+        # gap's light does not bounce off them.
+        albedo=((albedo[members] * weights).sum(axis=0) / total_area if surface > 0
+                else np.zeros(3)),
+        surface=surface)
 
 
 def _same_side_as(caches, region, strongest, members, position, texel_size):

@@ -163,7 +163,8 @@ class Shooter:
     radiance: np.ndarray        # leaving its front (every shooter is one-sided)
     unshot: np.ndarray          # (N, 4) float32: what this shot takes from each texel
     albedo: np.ndarray          # its texels' mean albedo: what a thin gap's far side bounces
-    surface: int                # the surface number of its strongest texel
+    surface: int                # the surface number of its strongest texel (0: it does
+                                # not receive)
     extent: tuple = None        # its surface along its frame's t and b (thin_gaps.extent)
                                 # when a receiver may face it across a thin gap, else None
 

@@ -219,12 +219,14 @@ class Texels:
 
 @dataclass
 class PageTriangles:
-    """A page's charted triangles: texel and world corners, open edges and texel bounds."""
+    """A page's charted triangles: texel and world corners, open edges, texel bounds and
+    surface numbers."""
     texels: np.ndarray          # (T, 3, 2)
     corners: np.ndarray         # (T, 3, 3)
     open_edges: np.ndarray      # (T, 3) bool: edge from corner i to i + 1
     low: np.ndarray             # (T, 2)
     high: np.ndarray            # (T, 2)
+    surfaces: np.ndarray        # (T,) state.surfaces of each
 
 
 @dataclass
@@ -257,17 +259,19 @@ def set_constant_uniforms(program):
 
 def extent(state, gaps, region, maps, shooter):
     """The shooter's surface rectangle (surface_extent) when a receiver may face it across a
-    thin gap (near_thin_gap), else None."""
+    thin gap (near_thin_gap), else None. A shooter that does not receive (the back of a lamp
+    emitting from both faces) holds no surface number in its texels: its charted triangles
+    tell it (charted_surface), for the ceiling over that back is as thin a gap."""
     if not near_thin_gap(state, gaps, region, maps.position, maps.normal, maps.unshot[:, 3]):
         return None
     t, b = shooter.frame[:, 0], shooter.frame[:, 1]
-    return surface_extent(state, gaps, shooter.surface, shooter.centre, t, b)
+    surface = shooter.surface if shooter.surface > 0 else charted_surface(state, gaps, shooter)
+    return surface_extent(state, gaps, surface, shooter.centre, t, b)
 
 
 def surface_extent(state, gaps, surface, centre, t, b):
     """The rectangle (u min, u max, v min, v max) along t and b from ``centre`` that holds
-    the shooter's surface (all surfaces of its number), or an empty one for a shooter that
-    does not receive (its texels hold no number)."""
+    the surface (all triangles of its number), or an empty one for no surface (0)."""
     if surface <= 0:
         return NO_SURFACE
     corners = gaps.surface_corners.get(surface)
@@ -381,37 +385,16 @@ def lit_by(state, gaps, shooter):
     the world by its own affine map) and world segments (the open edges of its surface
     among them, open_edges: their two ends and a point a texel inside). Blocks are shot
     many times: once per rectangle."""
-    page = state.pages.index(shooter.page)
-    (x0, y0), (x1, y1) = shooter.texels.min(axis=0), shooter.texels.max(axis=0) + 1
-    key = (page, int(x0), int(y0), int(x1), int(y1))
+    key = _texel_rectangle(state, shooter)
     if key in gaps.lit_polygons:
         return gaps.lit_polygons[key]
-    if gaps.page_triangles is None:
-        atlas = state.packed
-        corners = state.scene.vertices[state.scene.triangles[atlas.triangles]]
-        edges = open_edges(state)
-        gaps.page_triangles = [
-            PageTriangles(atlas.texels[on], corners[on], edges[on], atlas.texels[on].min(axis=1),
-                          atlas.texels[on].max(axis=1))
-            for on in (atlas.page == index for index in range(atlas.page_count))]
-    triangles = gaps.page_triangles[page]
+    triangles = page_triangles(state, gaps)[key[0]]
     texels, corners, edges = triangles.texels, triangles.corners, triangles.open_edges
-    low, high = triangles.low, triangles.high
-    meets = np.nonzero((low[:, 0] < x1) & (high[:, 0] > x0)
-                       & (low[:, 1] < y1) & (high[:, 1] > y0))[0]
-    rectangle = [complex(x0, y0), complex(x1, y0), complex(x1, y1), complex(x0, y1)]
     polygons, segments = [], []
-    for triangle in meets:
+    for triangle, piece, rectangle in _charted_pieces(triangles, key):
         uv, points = texels[triangle], corners[triangle]
         outline = [complex(x, y) for x, y in uv]
         turn = signed_area(outline)
-        if abs(turn) < 1e-12:
-            continue
-        piece = clipped(outline, rectangle)
-        # A triangle touching the rectangle along a side or at a corner leaves a piece of
-        # no area, whose outline would cover everything in share_under.
-        if len(piece) < 3 or abs(signed_area(piece)) <= 1e-9 * abs(turn):
-            continue
         polygons.append(texels_to_world(piece, uv, points))
         for corner in np.nonzero(edges[triangle])[0]:
             a, b = outline[corner], outline[(corner + 1) % 3]
@@ -428,6 +411,61 @@ def lit_by(state, gaps, shooter):
                     ends + [0.5 * (ends[0] + ends[1]) + 1e3 * inward], uv, points))
     gaps.lit_polygons[key] = polygons, segments
     return polygons, segments
+
+
+def charted_surface(state, gaps, shooter):
+    """The surface number of the charted triangle that covers most of the shooter's texels'
+    rectangle (0 if none does)."""
+    key = _texel_rectangle(state, shooter)
+    triangles = page_triangles(state, gaps)[key[0]]
+    covered = {}
+    for triangle, piece, _ in _charted_pieces(triangles, key):
+        surface = int(triangles.surfaces[triangle])
+        covered[surface] = covered.get(surface, 0.0) + area(piece)
+    return max(covered, key=covered.get, default=0)
+
+
+def page_triangles(state, gaps):
+    """Per page its charted triangles (PageTriangles), made at the first thin gap."""
+    if gaps.page_triangles is None:
+        atlas = state.packed
+        corners = state.scene.vertices[state.scene.triangles[atlas.triangles]]
+        edges = open_edges(state)
+        surfaces = state.surfaces[atlas.triangles]
+        gaps.page_triangles = [
+            PageTriangles(atlas.texels[on], corners[on], edges[on], atlas.texels[on].min(axis=1),
+                          atlas.texels[on].max(axis=1), surfaces[on])
+            for on in (atlas.page == index for index in range(atlas.page_count))]
+    return gaps.page_triangles
+
+
+def _texel_rectangle(state, shooter):
+    """(page, x0, y0, x1, y1): the rectangle of the shooter's texels on its page, texel i
+    spanning [i, i + 1)."""
+    (x0, y0), (x1, y1) = shooter.texels.min(axis=0), shooter.texels.max(axis=0) + 1
+    return state.pages.index(shooter.page), int(x0), int(y0), int(x1), int(y1)
+
+
+def _charted_pieces(triangles, key):
+    """(triangle, piece, rectangle) for each of the page's triangles (PageTriangles) that
+    covers some of the texel rectangle ``key`` (_texel_rectangle): its index, the part of it
+    inside, and the rectangle, as complex texel coordinates."""
+    _, x0, y0, x1, y1 = key
+    low, high = triangles.low, triangles.high
+    meets = np.nonzero((low[:, 0] < x1) & (high[:, 0] > x0)
+                       & (low[:, 1] < y1) & (high[:, 1] > y0))[0]
+    rectangle = [complex(x0, y0), complex(x1, y0), complex(x1, y1), complex(x0, y1)]
+    for triangle in meets:
+        outline = [complex(x, y) for x, y in triangles.texels[triangle]]
+        turn = signed_area(outline)
+        if abs(turn) < 1e-12:
+            continue
+        piece = clipped(outline, rectangle)
+        # A triangle touching the rectangle along a side or at a corner leaves a piece of
+        # no area, whose outline would cover everything in share_under.
+        if len(piece) < 3 or abs(signed_area(piece)) <= 1e-9 * abs(turn):
+            continue
+        yield triangle, piece, rectangle
 
 def open_edges(state):
     """Per charted triangle, whether each edge (corner i to i + 1) is open: no other
