@@ -7,6 +7,9 @@ median over the repeats, and whether both paths bake the same lightmaps bit for 
     python bench/bench_visibility_draw.py --scenes cornell_box living --repeats 3 \\
         --json bench/results/visibility-draw-llvmpipe.json
 
+--draw-clusters N ... times the per-face path with its draws cut at each N clusters
+(visibility.PER_FACE_DRAW_CLUSTERS; 0: one draw per run of consecutive clusters).
+
 A scene is a name of native.samples (cornell_box), of bench/scenes/ (living), or the path of
 a scene file (bench_charting.py's subdivided interiors: bench/scenes/generated/*.npz). Each
 bake stops at --shots shots (threshold 0), at --density texels per metre where given, else at
@@ -25,9 +28,7 @@ import numpy as np
 # common also puts the repository on sys.path
 from common import device_name, load_scene, save_results
 from native import Scene, Settings, Solver, create_context, samples, visibility
-from native.atlas import clear_cache
 
-PATHS = ("GEOMETRY_SHADER", "PER_FACE")
 # Texels per metre a scene bakes at unless --density says otherwise: the Cornell box at the
 # density scaling's lowest, the living room as BENCHMARKS.md's "Triangles" measured it.
 DENSITIES = {"cornell_box": 60.0, "living": 4.0}
@@ -62,8 +63,8 @@ def scene_named(name):
     return load_scene(name)
 
 
-def bake(scene, ctx, *, density, shots, path):
-    clear_cache()
+def bake(scene, ctx, *, density, shots, path, draw_clusters):
+    visibility.PER_FACE_DRAW_CLUSTERS = draw_clusters or None
     timer = CpuTimer()
     solver = Solver(scene, Settings(texel_density=density, threshold=0.0, max_shots=shots,
                                     ambient=False, profile=True, visibility_draw=path),
@@ -71,7 +72,8 @@ def bake(scene, ctx, *, density, shots, path):
     try:
         solver.run()
         per_shot = max(solver.shots, 1)
-        return {"path": path, "shots": solver.shots, "texels": solver.texel_count,
+        return {"path": path, "draw_clusters": draw_clusters, "shots": solver.shots,
+                "texels": solver.texel_count,
                 "visibility_seconds_per_shot": solver.timings["visibility"] / per_shot,
                 "visibility_cpu_seconds_per_shot": timer.seconds / per_shot,
                 "phases": dict(solver.timings)}, solver.result()
@@ -86,6 +88,8 @@ def main():
     parser.add_argument("--density", type=float)
     parser.add_argument("--shots", type=int, default=200)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--draw-clusters", type=int, nargs="+",
+                        default=[visibility.PER_FACE_DRAW_CLUSTERS])
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
 
@@ -96,29 +100,37 @@ def main():
     for name in args.scenes:
         scene = scene_named(name)
         density = args.density or DENSITIES.get(name, DEFAULT_DENSITY)
-        for path in PATHS:   # compile the shaders before timing
-            bake(scene, ctx, density=density, shots=2, path=path)
+        variants = [("GEOMETRY_SHADER", None)] + [("PER_FACE", clusters)
+                                                  for clusters in args.draw_clusters]
+        for path, clusters in variants[:2]:   # compile the shaders before timing
+            bake(scene, ctx, density=density, shots=2, path=path, draw_clusters=clusters)
         rows, lightmaps = [], {}
         for repeat in range(args.repeats):
-            for path in PATHS:
-                row, pages = bake(scene, ctx, density=density, shots=args.shots, path=path)
-                row["repeat"] = repeat
+            for path, clusters in variants:
+                label = path if clusters is None else f"{path} ({clusters or 'runs'})"
+                row, pages = bake(scene, ctx, density=density, shots=args.shots, path=path,
+                                  draw_clusters=clusters)
+                row.update(repeat=repeat, label=label)
                 rows.append(row)
-                lightmaps.setdefault(path, pages)
-                print(f"{name} {path} #{repeat}: {row['shots']} shots, visibility "
+                lightmaps.setdefault(label, pages)
+                print(f"{name} {label} #{repeat}: {row['shots']} shots, visibility "
                       f"{1e3 * row['visibility_seconds_per_shot']:.2f} ms per shot "
                       f"({1e3 * row['visibility_cpu_seconds_per_shot']:.2f} CPU ms)",
                       flush=True)
-        identical = all(np.array_equal(a, b) for a, b in zip(*lightmaps.values()))
+        first = next(iter(lightmaps.values()))
+        identical = all(np.array_equal(a, b) for pages in lightmaps.values()
+                        for a, b in zip(first, pages))
         summary = {"scene": name, "triangles": int(len(scene.triangles)), "density": density,
-                   "shots": args.shots, "identical_lightmaps": identical, "rows": rows}
-        for path in PATHS:
-            mine = [row for row in rows if row["path"] == path]
-            for key in ("visibility_seconds_per_shot", "visibility_cpu_seconds_per_shot"):
-                summary[f"{path}_median_{key}"] = statistics.median(row[key] for row in mine)
-            wall = summary[f"{path}_median_visibility_seconds_per_shot"]
-            cpu = summary[f"{path}_median_visibility_cpu_seconds_per_shot"]
-            print(f"{name} ({summary['triangles']} triangles) {path}: median "
+                   "shots": args.shots, "identical_lightmaps": identical, "rows": rows,
+                   "medians": {}}
+        for label in lightmaps:
+            mine = [row for row in rows if row["label"] == label]
+            wall, cpu = (statistics.median(row[key] for row in mine)
+                         for key in ("visibility_seconds_per_shot",
+                                     "visibility_cpu_seconds_per_shot"))
+            summary["medians"][label] = {"visibility_seconds_per_shot": wall,
+                                         "visibility_cpu_seconds_per_shot": cpu}
+            print(f"{name} ({summary['triangles']} triangles) {label}: median "
                   f"{1e3 * wall:.2f} ms per shot, {1e3 * cpu:.2f} CPU ms", flush=True)
         print(f"{name}: lightmaps {'identical' if identical else 'DIFFER'}", flush=True)
         results.append(summary)
