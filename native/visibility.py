@@ -160,10 +160,10 @@ def render(state, visibility, view, *, faces, clip_below):
     per_face = name == "visibility" and state.per_face_visibility
     program = state.programs[name]
     view.set_uniforms(program, state)
-    if not per_face:   # the hemisphere programs draw the hemispheres u_face_count asks
+    if not per_face:   # a geometry shader draws the faces or hemispheres u_face_count asks
         set_uniform(program, "u_face_count", (2 if faces == ALL_FACES else 1) if hemisphere
                     else faces)
-    if not hemisphere:
+    if name == "visibility":
         set_uniform(program, "u_clip_below", int(clip_below))
     visibility.framebuffer.use()
     visibility.framebuffer.clear(CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE)
