@@ -7,6 +7,7 @@ import math
 import moderngl
 import numpy as np
 
+from .errors import SettingsError
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
 from .state import MAP_UNITS, Bounds, Energy, Page, decode_normals, read_map
@@ -36,6 +37,8 @@ MIN_SPREAD = 1e-3
 BEND_STEPS = 255
 # Under this sine between a texel's sample normal and its mean normal, the sample is the mean.
 BEND_DIRECTION_SINE = math.sin(math.radians(1.0))
+# What lets a vertex shader pick the layer it draws into: the cube's faces drawn one by one.
+VERTEX_LAYER_EXTENSION = "GL_ARB_shader_viewport_layer_array"
 # The selection's arg-max pyramid (selection.measure) stops at the first level with at most
 # this many texels: the regions it reads back.
 SELECTION_REGIONS = 1024
@@ -101,7 +104,8 @@ def number_surfaces(scene):
 def create_gpu_state(state):
     """The programs and their constant uniforms, the material textures and the pages' maps."""
     gl = state.gl
-    state.programs = create_programs(gl, state.settings)
+    state.per_face_visibility = draws_per_face(state.ctx, state.settings)
+    state.programs = create_programs(gl, state.settings, per_face=state.per_face_visibility)
     state.fullscreen = {name: gl.vertex_array(state.programs[name], [])
                         for name in ("block", "argmax")}
     set_constant_uniforms(state)
@@ -112,14 +116,17 @@ def create_gpu_state(state):
                    for _ in range(state.packed.page_count)]
 
 
-def create_programs(gl, settings):
+def create_programs(gl, settings, *, per_face):
+    """The programs by name; ``per_face``: the cube's faces drawn one by one
+    (draws_per_face), not routed by a geometry shader."""
     programs = {
         "attributes": gl.program("raster.vert", "raster_attributes.frag", "raster.geom"),
         "area": gl.program("raster.vert", "raster_area.frag", "raster.geom"),
         "moments": gl.program("raster.vert", "normal_moments.frag", "raster.geom"),
         "block": gl.program("fullscreen.vert", "block_power.frag"),
         "argmax": gl.program("fullscreen.vert", "argmax.frag"),
-        "visibility": gl.program("visibility.vert", "visibility.frag", "visibility.geom"),
+        "visibility": (gl.program("visibility_face.vert", "visibility.frag") if per_face else
+                       gl.program("visibility.vert", "visibility.frag", "visibility.geom")),
         "hemisphere": gl.program("visibility_hemisphere.vert", "visibility_hemisphere.frag",
                                  "visibility_hemisphere.geom"),
         "hemisphere_tessellated": gl.program(
@@ -135,6 +142,20 @@ def create_programs(gl, settings):
         programs["count"] = gl.program("raster.vert", "shadow_count.frag", "raster.geom")
         programs["level"] = gl.program("raster.vert", "set_level.frag", "raster.geom")
     return programs
+
+
+def draws_per_face(ctx, settings):
+    """Whether the cube's faces are drawn one by one (Settings.visibility_draw) rather than in
+    one geometry-shader pass: AUTO draws per face on llvmpipe, whose geometry shaders run on
+    one thread (BENCHMARKS.md, "Scaling with texel density")."""
+    if settings.visibility_draw == "GEOMETRY_SHADER":
+        return False
+    supported = VERTEX_LAYER_EXTENSION in ctx.extensions
+    if settings.visibility_draw == "PER_FACE" and not supported:
+        raise SettingsError(f"visibility_draw PER_FACE needs {VERTEX_LAYER_EXTENSION}, which "
+                            f"{ctx.info['GL_RENDERER']} lacks: choose AUTO or GEOMETRY_SHADER")
+    return supported and (settings.visibility_draw == "PER_FACE"
+                          or "llvmpipe" in ctx.info["GL_RENDERER"])
 
 
 def set_constant_uniforms(state):

@@ -132,6 +132,16 @@ SUBDIVISION_CHOICES = (
     Choice(identifier="REGULAR", label="Regular",
            help="Refine every triangle: each texel gathers light at 4^level points"),
 )
+VISIBILITY_DRAW_CHOICES = (
+    Choice(identifier="AUTO", label="Automatic",
+           help="Per face on llvmpipe, one geometry-shader pass elsewhere"),
+    Choice(identifier="GEOMETRY_SHADER", label="Geometry Shader",
+           help="Every face in one pass: a geometry shader sends each triangle to the faces "
+           "it reaches"),
+    Choice(identifier="PER_FACE", label="Per Face",
+           help="One draw per face of the clusters of triangles that can reach it; needs "
+           "GL_ARB_shader_viewport_layer_array"),
+)
 PROJECTIONS = tuple(choice.identifier for choice in PROJECTION_CHOICES)
 SUBDIVISIONS = tuple(choice.identifier for choice in SUBDIVISION_CHOICES)
 MAX_SUBDIVISION_LEVEL = 3
@@ -199,6 +209,10 @@ SETTINGS = (
     Setting(name="projection", kind=str, default="HEMICUBE", choices=PROJECTION_CHOICES,
             help="How visibility is sampled around each shooter",
             exposed=Exposed(label="Projection", option="--projection")),
+    # llvmpipe runs geometry shaders on one thread (BENCHMARKS.md, "Scaling with texel
+    # density"); the hemisphere projections draw with their own geometry shaders.
+    Setting(name="visibility_draw", kind=str, default="AUTO", choices=VISIBILITY_DRAW_CHOICES,
+            help="How the hemicube's and the lights' cube faces are drawn"),
     # Section 5.2 of the paper.
     Setting(name="neighbour_visibility", kind=bool, default=True,
             help="A receiver whose visibility texel an occluder within a map texel of it "

@@ -72,6 +72,7 @@ class BakeState:
     patch_level: int = 0        # the mip level whose blocks shoot (selection.patch_level)
     receiver_tiles: object = None  # receivers.ReceiverTiles: what the receiver pass draws
     programs: dict = None
+    per_face_visibility: bool = False   # the cube drawn face by face (preprocess.draws_per_face)
     fullscreen: dict = None     # vertex arrays drawing one screen-filling triangle
     material_textures: dict = None   # Scene's texture lists, by name, on the GPU
     pages: list = None

@@ -2,7 +2,8 @@
 stereographic or nonlinear hemispheres, or the sun's orthographic window), into which every
 occluding triangle is drawn with its surface number; the receivers test against it. The
 occluders lie in clusters of nearby triangles: a one-sided shooter draws only the clusters
-that reach above its plane."""
+that reach above its plane, and a cube drawn face by face only those that reach into each
+face."""
 import moderngl
 import numpy as np
 
@@ -26,6 +27,23 @@ FAR_AWAY = 1e30
 CLUSTER_TRIANGLES = 64
 # Bits per axis of the Morton code that orders the triangles into clusters.
 MORTON_BITS = 10
+# Each cube face's frame (projection.glsl's FACE_RIGHT, FACE_UP, FACE_FORWARD) in the view's:
+# the face sees what lies within forward +- right and forward +- up.
+FACE_RIGHT = np.array([(1, 0, 0), (0, 1, 0), (0, -1, 0), (-1, 0, 0), (1, 0, 0), (1, 0, 0)],
+                      dtype=np.float64)
+FACE_UP = np.array([(0, 1, 0), (0, 0, 1), (0, 0, 1), (0, 0, 1), (0, 0, 1), (0, -1, 0)],
+                   dtype=np.float64)
+FACE_FORWARD = np.array([(0, 0, 1), (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, -1)],
+                        dtype=np.float64)
+# The per-face draws (llvmpipe's path) hold at most this many clusters: on long draws whose
+# triangles it clips, llvmpipe's vertex stage walks all of the draw's vertices each time its
+# small buffer of set-up vertices fills (as profiled), which made one draw per run of clusters
+# slower than the geometry shader (BENCHMARKS.md, "Scaling with texel density").
+PER_FACE_DRAW_CLUSTERS = 2
+# The clusters' bounds grow by this share of the coordinates' size (the farthest eye's): the
+# shaders place corners in single precision, a cluster just outside a plane in double may
+# draw a fragment inside it.
+CLUSTER_PAD = 2.0 ** -18
 
 
 def create(state):
@@ -56,11 +74,12 @@ def create(state):
         scene_content + [(caster_vbo, "1f", "in_caster_level")])
     # The occluders' planes keep a shooter on one side of what crosses it (shooters).
     low, high = _cluster_bounds(positions.astype(np.float64))
+    pad = CLUSTER_PAD * (float(np.abs(state.bounds.centre).max()) + 4.0 * state.bounds.radius)
     return VisibilityMap(texture=texture, framebuffer=framebuffer, vaos=vaos,
                          triangle_vertices=positions.shape[0] * 3,
                          occluders=TrianglePlanes(positions.astype(np.float64)),
                          caster_levels=caster_levels, caster_vbo=caster_vbo,
-                         cluster_low=low, cluster_high=high)
+                         cluster_low=low - pad, cluster_high=high + pad)
 
 
 def _morton_order(points):
@@ -86,18 +105,33 @@ def _cluster_bounds(corners):
     return low, high
 
 
-def _vertex_runs(visibility, view):
-    """(first vertex, vertices) of the runs of consecutive clusters that reach above the
-    view's plane (the shader clips the rest of a triangle below it)."""
-    n = view.frame[:, 2]
-    middle = 0.5 * (visibility.cluster_high + visibility.cluster_low)
+def _reaching(visibility, eye, normals):
+    """(C, P): whether each cluster's bounds reach the side of each plane through ``eye`` that
+    ``normals`` (P, 3) point to (the shader clips the rest of a triangle)."""
+    middle = 0.5 * (visibility.cluster_high + visibility.cluster_low) - eye
     half = 0.5 * (visibility.cluster_high - visibility.cluster_low)
-    above = (middle - view.eye) @ n + half @ np.abs(n) >= 0.0
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], above.astype(np.int8), [0]])))
+    return middle @ normals.T + half @ np.abs(normals).T >= 0.0
+
+
+def _face_normals(view, faces):
+    """(faces, 4, 3): the world normals of the four planes through the eye that bound each of
+    the first ``faces`` cube faces, pointing into it."""
+    forward, right, up = (axes[:faces, None, :] for axes in (FACE_FORWARD, FACE_RIGHT, FACE_UP))
+    sides = np.concatenate([right, -right, up, -up], axis=1)
+    return (forward + sides) @ np.asarray(view.frame, dtype=np.float64).T
+
+
+def _vertex_runs(visibility, drawn, *, most_clusters=None):
+    """(first vertex, vertices) of the runs of consecutive clusters ``drawn`` (C,) marks, each
+    cut into draws of at most ``most_clusters`` clusters where given."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], drawn.astype(np.int8), [0]])))
     per_cluster = 3 * CLUSTER_TRIANGLES
+    step = most_clusters or len(drawn)
     return [(int(start) * per_cluster,
-             min(int(end) * per_cluster, visibility.triangle_vertices) - int(start) * per_cluster)
-            for start, end in zip(edges[::2], edges[1::2])]
+             min(int(start + step) * per_cluster, int(end) * per_cluster,
+                 visibility.triangle_vertices) - int(start) * per_cluster)
+            for run_start, end in zip(edges[::2], edges[1::2])
+            for start in range(run_start, end, step)]
 
 
 def program_for(settings, orthographic):
@@ -116,24 +150,43 @@ def render(state, visibility, view, *, faces, clip_below):
     """Distance map around the view's eye: ``faces`` cube faces (ALL_FACES all round,
     FRONT_FACES the hemicube in front, SUN_FACES the sun's orthographic view) or, with a
     hemisphere projection, the front hemisphere alone or both; ``clip_below`` clips what lies
-    behind the eye's plane (a one-sided shooter)."""
+    behind the eye's plane (a one-sided shooter). Only the clusters of occluders that reach
+    what is drawn are drawn: above the eye's plane, and with the cube drawn face by face,
+    into each face."""
     settings = state.settings
     hemisphere = settings.projection != "HEMICUBE" and not view.orthographic
     name = program_for(settings, view.orthographic)
+    # The cube's faces one by one (preprocess.draws_per_face), or routed by a geometry shader.
+    per_face = name == "visibility" and state.per_face_visibility
     program = state.programs[name]
     view.set_uniforms(program, state)
-    set_uniform(program, "u_face_count", (2 if faces == ALL_FACES else 1) if hemisphere
-                else faces)
-    if name == "visibility":   # the hemisphere programs draw the hemispheres u_face_count asks
+    if not per_face:   # a geometry shader draws the faces or hemispheres u_face_count asks
+        set_uniform(program, "u_face_count", (2 if faces == ALL_FACES else 1) if hemisphere
+                    else faces)
+    if name == "visibility":
         set_uniform(program, "u_clip_below", int(clip_below))
     visibility.framebuffer.use()
     visibility.framebuffer.clear(CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE)
     clip = clip_below or name.startswith("hemisphere")
-    runs = (_vertex_runs(visibility, view) if clip_below
-            else [(0, visibility.triangle_vertices)])
+    above = view.frame[:, 2][None, :] if clip_below else np.zeros((0, 3))
+    if not per_face:
+        draws = [(None, _reaching(visibility, view.eye, above).all(axis=1))]
+    elif view.orthographic:   # the sun's one face covers the scene
+        draws = [(0, _reaching(visibility, view.eye, above).all(axis=1))]
+    else:
+        sides = _face_normals(view, faces)
+        reach = _reaching(visibility, view.eye, np.concatenate([above, sides.reshape(-1, 3)]))
+        in_front = reach[:, :len(above)].all(axis=1)
+        inside = reach[:, len(above):].reshape(-1, faces, 4).all(axis=2)
+        draws = [(face, in_front & inside[:, face]) for face in range(faces)]
     with render_state(state.ctx, blend=moderngl.MIN, clip_distance=clip):
-        for first, vertices in runs:
-            visibility.vaos[name].render(moderngl.TRIANGLES, first=first, vertices=vertices)
+        for face, drawn in draws:
+            if face is not None:
+                set_uniform(program, "u_face", face)
+            runs = _vertex_runs(visibility, drawn,
+                                most_clusters=PER_FACE_DRAW_CLUSTERS if per_face else None)
+            for first, vertices in runs:
+                visibility.vaos[name].render(moderngl.TRIANGLES, first=first, vertices=vertices)
 
 
 def covered_share(state, visibility):

@@ -3,7 +3,8 @@
 // triangle that projects it once and emits it to the faces it reaches. A front-only shooter
 // clips geometry behind its plane. (llvmpipe runs geometry shaders on the calling thread,
 // before its threaded rasteriser: six invocations per triangle, one per face, made this pass
-// most of a shot on scenes of many triangles.)
+// most of a shot on scenes of many triangles; visibility_face.vert draws face by face.) The
+// corners go out in their order: the fragment shader tells the side facing the eye by it.
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 18) out;
 
@@ -14,9 +15,6 @@ in vec3 v_world[];
 in float v_surface[];
 out vec3 g_local;
 flat out float g_surface;
-flat out int g_faces_away;
-
-#include "visibility_store.glsl"
 
 #include "projection.glsl"
 
@@ -35,7 +33,6 @@ bool outside(vec4 clip[3]) {
 void main() {
     vec3 local[3] = vec3[3](to_local(v_world[0]), to_local(v_world[1]), to_local(v_world[2]));
     if (u_clip_below != 0 && local[0].z < 0.0 && local[1].z < 0.0 && local[2].z < 0.0) return;
-    bool away = faces_away_from_eye(local[0], local[1], local[2]);
     for (int face = 0; face < u_face_count; ++face) {
         vec4 clip[3];
         for (int i = 0; i < 3; ++i) clip[i] = face_clip(local[i], face);
@@ -43,7 +40,6 @@ void main() {
         for (int i = 0; i < 3; ++i) {
             g_local = local[i];
             g_surface = v_surface[0];
-            g_faces_away = int(away);
             gl_Position = clip[i];
             gl_ClipDistance[0] = u_clip_below != 0 ? local[i].z : 1.0;
             gl_Layer = face;
