@@ -174,7 +174,7 @@ SETTINGS = (
             "of two at which a texel half the scene's diagonal away covers a face texel "
             "(2 x that distance x the texel density), from 128 to 512 (map 0.4 to 6.3 MB). "
             "Cornell box at 160 texels per metre: 256, relative RMS against Cycles 1.3 % instead "
-            "of 1.7 % at 128, the bake 1.1 times as long",
+            "of 1.7 % at 128, the bake 1.0 to 1.1 times as long",
             exposed=Exposed(label="Hemicube Resolution", option="--hemicube",
                             subtype='PIXEL')),
     Setting(name="shoot_level", kind=int, default=2, minimum=0, maximum=MAX_SHOOT_LEVEL,
@@ -190,8 +190,8 @@ SETTINGS = (
     Setting(name="threshold", kind=float, default=0.01, minimum=0.0, maximum=0.99,
             help="Stop when this fraction of the emitted power is left unshot (sunlight that "
             "misses the scene does not count). At 0.01 the Cornell box at 160 texels per "
-            "metre takes 2,854 shots, relative RMS error against Cycles 1.3 %, objects' means "
-            "within 0.8 %; at 0.003, 3,814 shots, twice the time, 0.9 %, within 0.4 %",
+            "metre takes 2,686 shots, relative RMS error against Cycles 1.3 %, objects' means "
+            "within 1 %; at 0.003, 3,638 shots, twice the time, 0.95 %, within 0.6 %",
             exposed=Exposed(label="Threshold", option="--threshold", subtype='FACTOR',
                             digits=4)),
     # 0 scales the limit with the scene (shot_limit): shots to converge grow with its blocks.
@@ -253,7 +253,7 @@ SETTINGS = (
             "reflected shots reach (an estimate of the unshot share it stands for): a closed "
             "room of albedo 0.99 within 1 % after 600 shots instead of thousands; an open "
             "floor and a sealed room stay within 1 % of their truth; the Cornell box at 1 % "
-            "unshot has every object within 0.8 % of Cycles with it, 0.4 to 3.7 % dark "
+            "unshot has every object within 1 % of Cycles with it, 0.6 to 4 % dark "
             "without. Costs a read of the maps each time the unshot fraction halves and two "
             "floats per texel on the CPU",
             exposed=Exposed(label="Ambient Term", option="--ambient")),
