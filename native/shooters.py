@@ -6,7 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import chart_quad, lightmap_tangent, rectangle_around, region_charts, shooter_quad
+from .geometry import (chart_quad, lightmap_tangent, quad_in_plane, rectangle_around,
+                       region_charts, shooter_quad)
 from .state import Region, Shooter, decode_normals
 
 # A shooter takes the texels of its block whose unshot radiance is at least this share of the
@@ -128,6 +129,10 @@ def make_shooter(state, caches, region, maps, charts):
     centre = (position[members, :3] * weights).sum(axis=0) / total_area
     n = (normal[members] * weights).sum(axis=0)
     n /= np.linalg.norm(n)
+    # The shooter's plane through its front-most texel, not their centroid: the texels of a
+    # curved sheet bulge past the plane through their centroid, where the sheet's back faces
+    # (an emitter's back-face copy) were in front of the shooter, a millimetre from its quad.
+    centre = centre + n * float(((position[members, :3] - centre) @ n).max())
     texels = np.stack([members % width, members // width], axis=1)
     t = lightmap_tangent(texels, position[members, :3], n)
     b = np.cross(n, t)
@@ -137,7 +142,11 @@ def make_shooter(state, caches, region, maps, charts):
     chart = by_label.get(int(labels[strongest]))
     origin = (region.x0, region.y0)
     if chart is not None:
-        quad = chart_quad(texels + origin, position[members, :3], chart, total_area)
+        quad = chart_quad(texels + origin, position[members, :3], chart, total_area,
+                          normal=n)
+        # Into the shooter's plane: the chart's plane may be off it on a curved chart, and
+        # what lies in front of the shooter must lie in front of its quad.
+        quad = quad_in_plane(quad, centre, n, total_area)
     else:
         quad = shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
                             total_area, centre)
