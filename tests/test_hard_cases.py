@@ -733,9 +733,8 @@ def test_an_open_lampshade_emitting_both_ways_lights_its_inside_as_radiosity_doe
     inside's other facets, bounced (radiosity on a finer mesh with exact form factors), and
     its convex outside gets nothing. A shooter's plane through the centroid of its texels cut
     through the curved sheet, and the sheet's inside, bulging past it, faced the outside's
-    quad from a millimetre: the inside came out 2.4 times as bright at 40 texels/m. (Left:
-    a few inside texels whose sample point lies a fraction of a millimetre past the plane
-    through the outside shooter's front-most sample point still get about twice theirs.)"""
+    quad from a millimetre: the inside came out 1.9 (20 texels/m) and 2.8 (40) times as
+    bright, some texels 2 to 3.5 times."""
     albedo, radiance = 0.75, 1.0
     scene, facets = open_lampshade(24, 0.22, 0.15, 0.3, albedo, radiance)
     images, samples, _, _, _ = solve(scene, ctx, texel_density=density, threshold=0.001)
@@ -748,6 +747,6 @@ def test_an_open_lampshade_emitting_both_ways_lights_its_inside_as_radiosity_doe
                         - 1e3 * (normals[inside] @ cell_normals.T > 0.999), axis=1)
     expected = albedo * irradiance[nearest] / math.pi
     ratio = values[inside, 0] / expected
-    assert ratio.mean() == pytest.approx(1.0, abs=0.05)
-    assert np.median(ratio) == pytest.approx(1.0, abs=0.05)
+    assert ratio.mean() == pytest.approx(1.0, abs=0.06)
+    assert ratio.max() < 1.25
     assert values[outward, 0].max() < 0.01 * expected.mean()
