@@ -18,6 +18,10 @@ SIMILAR_RADIANCE = 0.25
 # this share of the block's side (in the strongest texel's size) of its plane.
 COPLANAR_COSINE = 0.95
 COPLANAR_DEPTH = 0.25
+# A chart's texel-to-world map shapes a shooter's quad where its steps lie within this sine
+# of the shooter's plane; on a curved chart (steps averaged around a bend) the quad is the
+# rectangle around the shooter's texels in its own plane.
+FLAT_CHART_SINE = 0.1
 # A plane crosses a shooting block when texels lie this share of a texel beyond it each way.
 CROSSING_MARGIN = 1e-3
 # What a shooter reads of its block: (attachment of state.Page.blocks, components).
@@ -142,11 +146,11 @@ def make_shooter(state, caches, region, maps, charts):
     labels, by_label = charts
     chart = by_label.get(int(labels[strongest]))
     origin = (region.x0, region.y0)
-    if chart is not None:
+    if chart is not None and _lies_along(chart, n):
         quad = chart_quad(texels + origin, position[members, :3], chart, total_area,
                           normal=n)
-        # Into the shooter's plane: the chart's plane may be off it on a curved chart, and
-        # what lies in front of the shooter must lie in front of its quad.
+        # Into the shooter's plane: what lies in front of the shooter must lie in front of
+        # its quad.
         quad = quad_in_plane(quad, centre, n, total_area)
     else:
         quad = shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
@@ -157,6 +161,13 @@ def make_shooter(state, caches, region, maps, charts):
         radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
         albedo=(albedo[members] * weights).sum(axis=0) / total_area,
         surface=int(maps.surface[strongest]))
+
+
+def _lies_along(chart, normal):
+    """Whether the chart's steps along both lightmap axes lie in the plane of ``normal``."""
+    steps = chart.basis.T
+    return bool((np.abs(steps @ normal)
+                 <= FLAT_CHART_SINE * np.linalg.norm(steps, axis=1)).all())
 
 
 def _bend_rise(texels, points, normals):

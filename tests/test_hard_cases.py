@@ -726,7 +726,7 @@ def inside_radiosity(facets, albedo, radiance, cells):
     return centres, normals, math.pi * form_factors @ exitant
 
 
-@pytest.mark.parametrize("density", [20, 40])
+@pytest.mark.parametrize("density", [10, 20, 40])
 def test_an_open_lampshade_emitting_both_ways_lights_its_inside_as_radiosity_does(
         ctx, gl_clean, density):
     """A 24-sided open shade emitting from both faces: its inside gets the light of the
@@ -734,7 +734,9 @@ def test_an_open_lampshade_emitting_both_ways_lights_its_inside_as_radiosity_doe
     its convex outside gets nothing. A shooter's plane through the centroid of its texels cut
     through the curved sheet, and the sheet's inside, bulging past it, faced the outside's
     quad from a millimetre: the inside came out 1.9 (20 texels/m) and 2.8 (40) times as
-    bright, some texels 2 to 3.5 times."""
+    bright, some texels 2 to 3.5 times. At 10 texels/m a texel spans two facets, and a
+    quad through the chart's map, its steps averaged around the bend, left the inside at
+    0.87."""
     albedo, radiance = 0.75, 1.0
     scene, facets = open_lampshade(24, 0.22, 0.15, 0.3, albedo, radiance)
     images, samples, _, _, _ = solve(scene, ctx, texel_density=density, threshold=0.001)
@@ -747,6 +749,7 @@ def test_an_open_lampshade_emitting_both_ways_lights_its_inside_as_radiosity_doe
                         - 1e3 * (normals[inside] @ cell_normals.T > 0.999), axis=1)
     expected = albedo * irradiance[nearest] / math.pi
     ratio = values[inside, 0] / expected
-    assert ratio.mean() == pytest.approx(1.0, abs=0.06)
+    # At 10 texels/m a texel spans two facets (its sample point off the facets): 0.94.
+    assert ratio.mean() == pytest.approx(1.0, abs=0.08)
     assert ratio.max() < 1.25
     assert values[outward, 0].max() < 0.01 * expected.mean()
