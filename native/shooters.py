@@ -133,10 +133,10 @@ def make_shooter(state, caches, region, maps, charts):
     centre = (position[members, :3] * weights).sum(axis=0) / total_area
     n = (normal[members] * weights).sum(axis=0)
     n /= np.linalg.norm(n)
+    texels = np.stack([members % width, members // width], axis=1)
     # The shooter's plane through its front-most texel, not their centroid: the texels of a
     # curved sheet bulge past the plane through their centroid, where the sheet's back faces
     # (an emitter's back-face copy) were in front of the shooter, a millimetre from its quad.
-    texels = np.stack([members % width, members // width], axis=1)
     centre = centre + n * (float(((position[members, :3] - centre) @ n).max())
                            + _bend_rise(texels, position[members, :3], normal[members]))
     t = lightmap_tangent(texels, position[members, :3], n)
@@ -174,19 +174,19 @@ def _bend_rise(texels, points, normals):
     """How far a sheet bending between neighbouring texels can rise past both sample points:
     half their distance times the sine of half the bend (the crest of two facets meeting
     halfway between them), where it bends away from their front (a concave bend sags)."""
+    low = texels.min(axis=0)
+    rows = np.full(tuple(np.ptp(texels, axis=0)[::-1] + 1), -1)
+    rows[texels[:, 1] - low[1], texels[:, 0] - low[0]] = np.arange(len(texels))
     rise = 0.0
-    for axis in (0, 1):
-        step = np.zeros(2, dtype=texels.dtype)
-        step[axis] = 1
-        order = {tuple(texel): row for row, texel in enumerate(texels)}
-        pairs = [(row, order[tuple(texel + step)]) for row, texel in enumerate(texels)
-                 if tuple(texel + step) in order]
-        if pairs:
-            a, b = np.array(pairs).T
-            distance = np.linalg.norm(points[a] - points[b], axis=1)
-            half_bend_sine = 0.5 * np.linalg.norm(normals[a] - normals[b], axis=1)
-            convex = ((normals[b] - normals[a]) * (points[b] - points[a])).sum(axis=1) > 0.0
-            rise = max(rise, float((0.5 * distance * half_bend_sine * convex).max()))
+    for a, b in ((rows[:, :-1], rows[:, 1:]), (rows[:-1], rows[1:])):   # along x, then y
+        both = (a >= 0) & (b >= 0)
+        a, b = a[both], b[both]
+        if len(a) == 0:
+            continue
+        distance = np.linalg.norm(points[a] - points[b], axis=1)
+        half_bend_sine = 0.5 * np.linalg.norm(normals[a] - normals[b], axis=1)
+        convex = ((normals[b] - normals[a]) * (points[b] - points[a])).sum(axis=1) > 0.0
+        rise = max(rise, float((0.5 * distance * half_bend_sine * convex).max()))
     return rise
 
 
