@@ -8,7 +8,9 @@ meshes: addon/reference.py, copies=True).
                                    [--default-materials] [--json PATH]
 
 --default-materials gives every Principled BSDF Blender's default specular layer (Specular
-IOR Level 0.5, Roughness 0.5) in place of the file's matte ones.
+IOR Level 0.5, Roughness 0.5) in place of the file's matte ones. --samples is Cycles': with
+fewer, the small copies' means carry Cycles' own noise (BENCHMARKS.md, the realistic
+interior).
 """
 import argparse
 import importlib
@@ -29,7 +31,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--density", type=float, default=10.0)
     parser.add_argument("--threshold", type=float, default=0.02)
-    parser.add_argument("--samples", type=int, default=128)
+    parser.add_argument("--samples", type=int, default=1024)
     parser.add_argument("--default-materials", action="store_true")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()

@@ -196,12 +196,14 @@ def region_charts(position, texel_size, width, origin):
     return RegionCharts(labels.ravel(), charts)
 
 
-def chart_quad(texels, points, chart, area):
+def chart_quad(texels, points, chart, area, normal):
     """A shooter's quad from its texels' rectangle (page texel coordinates) mapped to the
     world by their chart: neighbouring shooters' quads tile the surface as the texels do.
     A part-covered texel at the rectangle's side covers the side of its texel away from the
     chart's edge, its sample point in the middle of what it covers: the quad's side is moved
-    in to match. Scaled to the texels' exact area about its middle."""
+    in to match. Scaled to the texels' exact area about its middle, and wound
+    counter-clockwise about the shooter's ``normal`` as shooter_quad's (a chart may run
+    either way round on the page)."""
     anchor, anchor_texel, basis = chart.anchor, chart.anchor_texel, chart.basis
     inverse = chart.inverse
     at = (points - anchor) @ inverse.T + anchor_texel   # sample points, in texels
@@ -221,7 +223,20 @@ def chart_quad(texels, points, chart, area):
     middle = world.mean(axis=0)
     spanned = np.linalg.norm(np.cross(world[1] - world[0], world[3] - world[0]))
     scale = math.sqrt(area / max(spanned, 1e-30))
-    return list(middle + (world - middle) * scale)
+    quad = list(middle + (world - middle) * scale)
+    if np.cross(world[1] - world[0], world[3] - world[0]) @ normal < 0.0:
+        quad.reverse()
+    return quad
+
+
+def quad_in_plane(quad, point, normal, area):
+    """A planar quad projected onto the plane through ``point`` with unit ``normal``, scaled
+    back to ``area`` about its middle (a projection onto a tilted plane shrinks it)."""
+    projected = np.array([corner - normal * ((corner - point) @ normal) for corner in quad])
+    middle = projected.mean(axis=0)
+    spanned = np.linalg.norm(np.cross(projected[1] - projected[0], projected[3] - projected[0]))
+    scale = math.sqrt(area / max(spanned, 1e-30))
+    return list(middle + (projected - middle) * scale)
 
 
 def shooter_quad(offsets, texel_sizes, t, b, area, centre):

@@ -6,7 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import chart_quad, lightmap_tangent, rectangle_around, region_charts, shooter_quad
+from .geometry import (chart_quad, lightmap_tangent, quad_in_plane, rectangle_around,
+                       region_charts, shooter_quad)
 from .state import Region, Shooter, decode_normals
 
 # A shooter takes the texels of its block whose unshot radiance is at least this share of the
@@ -17,6 +18,10 @@ SIMILAR_RADIANCE = 0.25
 # this share of the block's side (in the strongest texel's size) of its plane.
 COPLANAR_COSINE = 0.95
 COPLANAR_DEPTH = 0.25
+# A chart's texel-to-world map shapes a shooter's quad where its steps lie within this sine
+# of the shooter's plane; on a curved chart (steps averaged around a bend) the quad is the
+# rectangle around the shooter's texels in its own plane.
+FLAT_CHART_SINE = 0.1
 # A plane crosses a shooting block when texels lie this share of a texel beyond it each way.
 CROSSING_MARGIN = 1e-3
 # What a shooter reads of its block: (attachment of state.Page.blocks, components).
@@ -129,6 +134,11 @@ def make_shooter(state, caches, region, maps, charts):
     n = (normal[members] * weights).sum(axis=0)
     n /= np.linalg.norm(n)
     texels = np.stack([members % width, members // width], axis=1)
+    # The shooter's plane through its front-most texel, not their centroid: the texels of a
+    # curved sheet bulge past the plane through their centroid, where the sheet's back faces
+    # (an emitter's back-face copy) were in front of the shooter, a millimetre from its quad.
+    centre = centre + n * (float(((position[members, :3] - centre) @ n).max())
+                           + _bend_rise(texels, position[members, :3], normal[members]))
     t = lightmap_tangent(texels, position[members, :3], n)
     b = np.cross(n, t)
     taken = unshot[members].astype(np.float32)
@@ -136,8 +146,12 @@ def make_shooter(state, caches, region, maps, charts):
     labels, by_label = charts
     chart = by_label.get(int(labels[strongest]))
     origin = (region.x0, region.y0)
-    if chart is not None:
-        quad = chart_quad(texels + origin, position[members, :3], chart, total_area)
+    if chart is not None and _lies_along(chart, n):
+        quad = chart_quad(texels + origin, position[members, :3], chart, total_area,
+                          normal=n)
+        # Into the shooter's plane: what lies in front of the shooter must lie in front of
+        # its quad.
+        quad = quad_in_plane(quad, centre, n, total_area)
     else:
         quad = shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
                             total_area, centre)
@@ -151,6 +165,33 @@ def make_shooter(state, caches, region, maps, charts):
         albedo=((albedo[members] * weights).sum(axis=0) / total_area if surface > 0
                 else np.zeros(3)),
         surface=surface)
+
+
+def _lies_along(chart, normal):
+    """Whether the chart's steps along both lightmap axes lie in the plane of ``normal``."""
+    steps = chart.basis.T
+    return bool((np.abs(steps @ normal)
+                 <= FLAT_CHART_SINE * np.linalg.norm(steps, axis=1)).all())
+
+
+def _bend_rise(texels, points, normals):
+    """How far a sheet bending between neighbouring texels can rise past both sample points:
+    half their distance times the sine of half the bend (the crest of two facets meeting
+    halfway between them), where it bends away from their front (a concave bend sags)."""
+    low = texels.min(axis=0)
+    rows = np.full(tuple(np.ptp(texels, axis=0)[::-1] + 1), -1)
+    rows[texels[:, 1] - low[1], texels[:, 0] - low[0]] = np.arange(len(texels))
+    rise = 0.0
+    for a, b in ((rows[:, :-1], rows[:, 1:]), (rows[:-1], rows[1:])):   # along x, then y
+        both = (a >= 0) & (b >= 0)
+        a, b = a[both], b[both]
+        if len(a) == 0:
+            continue
+        distance = np.linalg.norm(points[a] - points[b], axis=1)
+        half_bend_sine = 0.5 * np.linalg.norm(normals[a] - normals[b], axis=1)
+        convex = ((normals[b] - normals[a]) * (points[b] - points[a])).sum(axis=1) > 0.0
+        rise = max(rise, float((0.5 * distance * half_bend_sine * convex).max()))
+    return rise
 
 
 def _same_side_as(caches, region, strongest, members, position, texel_size):

@@ -160,7 +160,8 @@ class Shooter:
     centre: np.ndarray
     frame: np.ndarray           # columns t, b, n
     area: float
-    quad: list                  # 4 world-space corners
+    quad: list                  # 4 world-space corners, counter-clockwise seen from the
+                                # front (about frame's n: receive_patch.frag)
     radiance: np.ndarray        # leaving its front (every shooter is one-sided)
     unshot: np.ndarray          # (N, 4) float32: what this shot takes from each texel
     albedo: np.ndarray          # its texels' mean albedo: what a thin gap's far side bounces

@@ -6,7 +6,8 @@
 #include "visibility_test.glsl"
 #include "receiver_common.glsl"
 
-uniform vec3 u_quad[4];        // shooter quad corners, world space
+uniform vec3 u_quad[4];        // shooter quad corners, world space, counter-clockwise about
+                               // the shooter's normal
 uniform vec3 u_centre;         // shooter centre
 uniform vec3 u_radiance;       // unshot radiance leaving the front face (shooters are
                                // one-sided: a two-sided emitter shoots from a mirrored copy)
@@ -35,7 +36,12 @@ float polygon_form_factor(vec3 p, vec3 n) {
         if (s < 1e-12) continue;
         sum += atan(s, dot(a, b)) * dot(n, g) / s;
     }
-    return min(abs(sum) / (2.0 * PI), 1.0);
+    // Seen from its front, the quad winds clockwise: the sum is negative. A point behind the
+    // quad sees its back, which emits nothing. The quad of a shooter on a curved chart is a
+    // plane through the chart, a few degrees off the shooter's frame: a texel on the
+    // surface's other side (an emitter's back-face copy, right behind it) can lie above the
+    // frame's plane yet behind the quad, and at a millimetre from it got almost all of it.
+    return clamp(-sum / (2.0 * PI), 0.0, 1.0);
 }
 
 bool in_near_field(vec3 point, float texel_size) {

@@ -2,6 +2,7 @@
 coplanar lights, tiny, huge and sliver triangles with T-junctions, high albedo, geometry seen
 from behind, thousands of shots, and random scenes and settings."""
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -730,3 +731,91 @@ def test_furnace_reflects_an_albedo_changed_after_construction(ctx, gl_clean, se
     finally:
         solver.release()
     np.testing.assert_allclose(values[values[..., 3] == 1][:, :3], 0.3 / (1.0 - 0.3), rtol=0.005)
+
+
+def open_lampshade(sides, bottom_radius, top_radius, height, albedo, radiance):
+    """A faceted open truncated cone around the z axis (a lampshade), its faces outward,
+    emitting from both faces and solving its inside (back faces) too; returns the scene and
+    the facets as polygons seen from inside (counter-clockwise from the axis)."""
+    angles = 2 * np.pi * np.arange(sides) / sides
+    rim = np.stack([np.cos(angles), np.sin(angles), np.zeros(sides)], axis=1)
+    bottom, top = bottom_radius * rim, top_radius * rim + [0.0, 0.0, height]
+    builder = SceneBuilder()
+    inside = []
+    for j in range(sides):
+        k = (j + 1) % sides
+        builder.quad("shade", [bottom[j], bottom[k], top[k], top[j]], (albedo,) * 3,
+                     (radiance,) * 3, two_sided=True, receive_back=True)
+        inside.append(np.array([bottom[k], bottom[j], top[j], top[k]]))
+    return builder.build(), inside
+
+
+def inside_radiosity(facets, albedo, radiance, cells):
+    """The inside's irradiance by radiosity on the facets split into cells x cells, with
+    Lambert's exact form factors between cells. Inside a convex shade each cell sees every
+    other facet whole (none of it below its horizon, nothing in the way). Returns the cells'
+    centres, normals and irradiance."""
+    polygons, owners = [], []
+    for owner, facet in enumerate(facets):
+        s, t = np.meshgrid(np.linspace(0, 1, cells + 1), np.linspace(0, 1, cells + 1),
+                           indexing="ij")
+        grid = (((1 - s) * (1 - t))[..., None] * facet[0] + (s * (1 - t))[..., None] * facet[1]
+                + (s * t)[..., None] * facet[2] + ((1 - s) * t)[..., None] * facet[3])
+        for i in range(cells):
+            for j in range(cells):
+                polygons.append([grid[i, j], grid[i + 1, j], grid[i + 1, j + 1], grid[i, j + 1]])
+                owners.append(owner)
+    polygons, owners = np.array(polygons), np.array(owners)
+    centres = polygons.mean(axis=1)
+    normals = np.cross(polygons[:, 1] - polygons[:, 0], polygons[:, 3] - polygons[:, 0])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    form_factors = np.stack([analytic.polygon_form_factors(centres, normals, polygon)
+                             for polygon in polygons], axis=1)
+    form_factors[owners[:, None] == owners[None, :]] = 0.0   # a facet does not see itself
+    exitant = np.full(len(polygons), radiance)
+    for _ in range(200):
+        irradiance = math.pi * form_factors @ exitant
+        exitant = radiance + albedo * irradiance / math.pi
+    return centres, normals, math.pi * form_factors @ exitant
+
+
+# The shade the lampshade test bakes: 24 sides, radii 0.22 and 0.15 m, 0.3 m high.
+LAMPSHADE = (24, 0.22, 0.15, 0.3)
+
+
+@functools.lru_cache(maxsize=None)
+def lampshade_truth(albedo, radiance):
+    """inside_radiosity() of LAMPSHADE, once for every density that tests it (the cells'
+    irradiance changes by 0.7 % in the mean from 4 x 4 cells a facet to 8 x 8)."""
+    _, facets = open_lampshade(*LAMPSHADE, albedo, radiance)
+    return inside_radiosity(facets, albedo, radiance, cells=8)
+
+
+@pytest.mark.parametrize("density", [10, 20, 40])
+def test_an_open_lampshade_emitting_both_ways_lights_its_inside_as_radiosity_does(
+        ctx, gl_clean, density):
+    """A 24-sided open shade emitting from both faces: its inside gets the light of the
+    inside's other facets, bounced (radiosity on a finer mesh with exact form factors), and
+    its convex outside gets nothing. A shooter's plane through the centroid of its texels cut
+    through the curved sheet, and the sheet's inside, bulging past it, faced the outside's
+    quad from a millimetre: the inside came out 1.9 (20 texels/m) and 2.8 (40) times as
+    bright, some texels 2 to 3.5 times. At 10 texels/m a texel spans two facets, and a
+    quad through the chart's map, its steps averaged around the bend, left the inside at
+    0.87."""
+    albedo, radiance = 0.75, 1.0
+    scene, _ = open_lampshade(*LAMPSHADE, albedo, radiance)
+    images, samples, _, _, _ = solve(scene, ctx, texel_density=density, threshold=0.001)
+    values, positions, normals = occupied_texels(images, samples)
+    outward = (positions[:, :2] * normals[:, :2]).sum(axis=1) > 0.0
+    centres, cell_normals, irradiance = lampshade_truth(albedo, radiance)
+    # Each inside texel against the cell of its facet nearest to its sample point (a texel
+    # spanning two facets, whose normal is neither's: the nearest cell).
+    inside = ~outward
+    nearest = np.argmin(((positions[inside, None] - centres[None]) ** 2).sum(axis=2)
+                        - 1e3 * (normals[inside] @ cell_normals.T > 0.999), axis=1)
+    expected = albedo * irradiance[nearest] / math.pi
+    ratio = values[inside, 0] / expected
+    # At 10 texels/m a texel spans two facets (its sample point off the facets): 0.955.
+    assert ratio.mean() == pytest.approx(1.0, abs=0.06)
+    assert ratio.max() < 1.2
+    assert values[outward, 0].max() < 0.01 * expected.mean()
