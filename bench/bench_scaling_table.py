@@ -113,6 +113,7 @@ def luxel_bake(context, luxel_package, seconds_limit):
             "phases": timings,
             "visibility_ms_per_shot": 1e3 * timings["visibility"] / max(progress.shots, 1),
             "gpu_memory_bytes": solver.gpu_memory_bytes,
+            "gpu_page_size": list(solver.gpu_page_size), "pages": solver.atlas.page_count,
             "gpu_bytes_per_texel": solver.gpu_memory_bytes / solver.texel_count,
             "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         }
