@@ -22,9 +22,9 @@ subdivision. ``--no-cycles``: Luxel's phases and memory only (a scene too slow t
 import argparse
 import dataclasses
 import json
+import math
 from pathlib import Path
 import resource
-import sys
 import time
 
 from bench_charting import subdivide_furniture
@@ -148,6 +148,12 @@ def against_cycles(context, addon, luxel, args):
         luxel_curve.append({"shots": shots, "seconds": seconds, "rms": error.rms,
                             "rel_rms": error.relative_rms})
     _debiased(luxel_curve, noise, magnitude)
+    last = len(snapshots.shots) - 1
+    # Per object, the reference's noise not taken out; None where no texel is shared.
+    luxel_objects = {name: error if math.isfinite(error) else None
+                     for name, error in addon.compare._object_rel_rms(
+                         names, [snapshots.page(last, page_of[name]) for name in names],
+                         [reference[name] for name in names]).items()}
     print(f"reference 2 x {args.reference_samples} samples: {reference_seconds:.1f} s, "
           f"noise {100 * noise ** 0.5 / magnitude:.2f} %; Luxel at the end "
           f"{100 * luxel_curve[-1]['rel_rms_debiased']:.2f} %", flush=True)
@@ -164,7 +170,8 @@ def against_cycles(context, addon, luxel, args):
     return {"reference_samples": 2 * args.reference_samples,
             "reference_seconds": reference_seconds,
             "reference_noise_rel": noise ** 0.5 / magnitude, "objects": names,
-            "times_to": times, "luxel_curve": luxel_curve, "cycles_curve": cycles,
+            "times_to": times, "luxel_curve": luxel_curve,
+            "luxel_objects_at_end": luxel_objects, "cycles_curve": cycles,
             "cycles_seconds_cap": args.cycles_seconds}
 
 
