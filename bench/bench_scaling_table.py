@@ -21,6 +21,7 @@ reaches the lowest target, or the next bake (about 4x the last) would end past
 subdivision. ``--no-cycles``: Luxel's phases and memory only (a scene too slow to compare)."""
 import argparse
 import dataclasses
+import inspect
 import json
 import math
 from pathlib import Path
@@ -66,9 +67,10 @@ def main():
     row.update(scene=args.scene, level=args.level, density=settings.texel_density,
                threshold=args.threshold, luxel_seconds_cap=args.luxel_seconds)
     print(json.dumps({key: value for key, value in row.items() if key != "phases"}), flush=True)
+    save_row(args.json, row, luxel.device)     # kept should the comparison fail
     if not args.no_cycles:
         row.update(against_cycles(context, addon, luxel, args))
-    save_row(args.json, row, luxel.device)
+        save_row(args.json, row, luxel.device)
     import os
     os._exit(0)     # bpy's teardown after a bake can crash on some versions
 
@@ -77,12 +79,13 @@ def luxel_bake(context, luxel_package, seconds_limit):
     """The bake with snapshots, timed per phase, stopped after ``seconds_limit``; returns
     the SnapshotBake and the row's Luxel columns."""
     addon, snapshots = luxel_package.addon, luxel_package.native.evaluation.snapshots
+    charting = timed_charting(luxel_package.native.solver)
     job = addon.bake.BakeJob(context)
     job.settings = dataclasses.replace(job.settings, profile=True)
-    triangles = None
+    stages = {}
+    job.stages = tuple(timed_stage(stage, stages) for stage in job.stages)
     try:
         job.set_up()
-        set_up_seconds = time.perf_counter() - job.started
         bake = addon.compare.SnapshotBake(job)
         bake.snapshots = snapshots.Snapshots(job.started, per_doubling=2)
         solver = job.solver
@@ -99,17 +102,21 @@ def luxel_bake(context, luxel_package, seconds_limit):
         bake.snapshots.take(solver)
         progress = solver.progress
         timings = dict(solver.timings)
-        triangles = len(job.export.scene.triangles)
+        export_stage, materials_stage, solver_stage = (stages[stage.name]
+                                                       for stage in job.stages)
         row = {
-            "triangles": triangles, "texels": solver.texel_count, "shots": progress.shots,
+            "triangles": len(job.export.scene.triangles), "texels": solver.texel_count,
+            "shots": progress.shots,
             "unshot_fraction": progress.unshot_fraction,
             "stopped": ("time cap" if capped else "shot limit" if progress.stopped_at_shot_limit
                         else "threshold"),
             "unshot_1_percent": milestone,
             "bake_seconds": bake.snapshots.seconds[-1],
-            "export_seconds": set_up_seconds - timings["preprocess"],
-            "charting_seconds": solver.atlas_seconds,
-            "preprocess_seconds": timings["preprocess"] - solver.atlas_seconds,
+            # The materials stage charts the atlas; the solver's call finds it in the cache.
+            "export_seconds": export_stage,
+            "materials_seconds": materials_stage - charting[0],
+            "charting_seconds": sum(charting),
+            "preprocess_seconds": solver_stage - sum(charting[1:]),
             "phases": timings,
             "visibility_ms_per_shot": 1e3 * timings["visibility"] / max(progress.shots, 1),
             "gpu_memory_bytes": solver.gpu_memory_bytes,
@@ -122,6 +129,33 @@ def luxel_bake(context, luxel_package, seconds_limit):
         raise
     job.finish()
     return bake, row
+
+
+def timed_charting(solver_module):
+    """A list that gets the seconds of each call to build_atlas, through which the add-on's
+    and the solver's atlases are made."""
+    calls = []
+    build_atlas = solver_module.build_atlas
+
+    def timed(*args, **kwargs):
+        started = time.perf_counter()
+        try:
+            return build_atlas(*args, **kwargs)
+        finally:
+            calls.append(time.perf_counter() - started)
+    solver_module.build_atlas = timed
+    return calls
+
+
+def timed_stage(stage, seconds):
+    """``stage`` of a BakeJob, its pieces' seconds put into seconds[stage.name]."""
+    def run():
+        started = time.perf_counter()
+        pieces = stage.run()
+        if inspect.isgenerator(pieces):
+            yield from pieces
+        seconds[stage.name] = time.perf_counter() - started
+    return dataclasses.replace(stage, run=run)
 
 
 def against_cycles(context, addon, luxel, args):
@@ -153,7 +187,7 @@ def against_cycles(context, addon, luxel, args):
     luxel_objects = {name: error if math.isfinite(error) else None
                      for name, error in addon.compare._object_rel_rms(
                          names, [snapshots.page(last, page_of[name]) for name in names],
-                         [reference[name] for name in names]).items()}
+                         reference).items()}
     print(f"reference 2 x {args.reference_samples} samples: {reference_seconds:.1f} s, "
           f"noise {100 * noise ** 0.5 / magnitude:.2f} %; Luxel at the end "
           f"{100 * luxel_curve[-1]['rel_rms_debiased']:.2f} %", flush=True)
