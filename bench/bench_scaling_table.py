@@ -24,6 +24,7 @@ import dataclasses
 import inspect
 import json
 import math
+import os
 from pathlib import Path
 import resource
 import time
@@ -71,7 +72,6 @@ def main():
     if not args.no_cycles:
         row.update(against_cycles(context, addon, luxel, args))
         save_row(args.json, row, luxel.device)
-    import os
     os._exit(0)     # bpy's teardown after a bake can crash on some versions
 
 
