@@ -40,19 +40,25 @@ def export(levels):
     GENERATED.mkdir(parents=True, exist_ok=True)
     for level in levels:
         bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / "interior.blend"))
-        for obj in bpy.data.objects:
-            if obj.type != 'MESH' or obj.name in ROOM:
-                continue
-            subdivision = next((m for m in obj.modifiers if m.type == 'SUBSURF'), None)
-            if subdivision is None:
-                subdivision = obj.modifiers.new("Subdivision", 'SUBSURF')
-                subdivision.levels = 0
-            subdivision.levels = subdivision.render_levels = subdivision.levels + level
+        subdivide_furniture(bpy, level)
         result = addon.export.export_scene(bpy.context)
         result.scene.save(scene_path(level))
         print(f"level {level}: {len(result.scene.triangles)} triangles, "
               f"{len(result.scene.object_names)} objects -> {scene_path(level)}", flush=True)
     os._exit(0)     # bpy's teardown can crash on some versions
+
+
+def subdivide_furniture(bpy, level):
+    """Every furniture mesh of the open interior.blend ``level`` more Subdivision Surface
+    levels (the sofa keeps its one level more); the walls, floor and ceiling as they are."""
+    for obj in bpy.data.objects:
+        if obj.type != 'MESH' or obj.name in ROOM:
+            continue
+        subdivision = next((m for m in obj.modifiers if m.type == 'SUBSURF'), None)
+        if subdivision is None:
+            subdivision = obj.modifiers.new("Subdivision", 'SUBSURF')
+            subdivision.levels = 0
+        subdivision.levels = subdivision.render_levels = subdivision.levels + level
 
 
 def measure(level, density, preprocess):

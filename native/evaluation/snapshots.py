@@ -45,6 +45,10 @@ class Snapshots:
         self.rgb.append([page[mask][:, :3].copy() for page, mask in zip(pages, self.masks)])
         self._paused += time.perf_counter() - began
 
+    def elapsed(self):
+        """The bake's seconds so far, the time spent keeping snapshots left out."""
+        return time.perf_counter() - self.started - self._paused
+
     def page(self, snapshot, page):
         """Snapshot ``snapshot`` of page ``page`` as an (H, W, 4) lightmap, alpha 1 where
         occupied (the gutters are 0)."""
