@@ -34,14 +34,13 @@ struct Tolerance {
     float reach;
 };
 
-// Whether the map texel lets the receiver (local point, local normal, distance 'own', its
-// surface's number) be seen. Either its own distance is within the tolerance of the stored
+// Whether the map texel, holding 'stored_texel' (visibility_store.glsl), lets the receiver
+// (local point, local normal, distance 'own', its surface's number) be seen. Either its own distance is within the tolerance of the stored
 // one, or the texel's centre ray meets the receiver's plane no farther than the stored
 // distance and near the receiver: a receiver seen at a grazing angle then never shadows
 // itself, however steep, while a wall's far side, or the same floor past a wall, stays dark.
-bool texel_sees(ivec3 texel, vec3 point, vec3 normal, float own, uint surface,
-                Tolerance tolerance) {
-    vec2 stored_texel = texelFetch(u_visibility, texel, 0).rg;
+bool texel_sees(ivec3 texel, vec2 stored_texel, vec3 point, vec3 normal, float own,
+                uint surface, Tolerance tolerance) {
     float stored = stored_texel.r;
     uint stored_key = floatBitsToUint(stored_texel.g) & 0x1FFFu;
     uint stored_surface = stored_key & 0xFFFu;
@@ -108,22 +107,24 @@ float visible_from_eye(vec3 world, vec3 normal, float surface) {
     // its edge, a texel's width of every shadow brighter. One loop and one call site of
     // texel_sees(), for llvmpipe's sake as in receiver_common.glsl.
     float seen = 0.0;
-    vec2 occluder = vec2(0.0);   // the own map texel's stored distance and surface key
+    float occluder = 0.0;        // the own map texel's stored distance
+    uint occluder_key = 0u;      // and its surface key
     float occluder_slope = 0.0;  // how far the occluder's distance changes across the 3x3
     int last_neighbour = u_neighbour_visibility != 0 ? 9 : 0;
     for (int k = -1; k < last_neighbour; ++k) {
         ivec2 offset = k < 0 ? ivec2(0) : ivec2(k % 3 - 1, k / 3 - 1);
         ivec3 n = ivec3(clamp(texel.xy + offset, ivec2(0), ivec2(last)), texel.z);
-        bool sees = texel_sees(n, local, local_normal, own, own_surface, tolerance);
         vec2 stored = texelFetch(u_visibility, n, 0).rg;
+        bool sees = texel_sees(n, stored, local, local_normal, own, own_surface, tolerance);
+        uint key = floatBitsToUint(stored.g) & 0x1FFFu;
         if (k < 0) {
             if (sees) return 1.0;
-            occluder = vec2(stored.r, uintBitsToFloat(floatBitsToUint(stored.g) & 0x1FFFu));
+            occluder = stored.r;
+            occluder_key = key;
         } else {
             if (sees) seen += 1.0;
-            if ((floatBitsToUint(stored.g) & 0x1FFFu) == floatBitsToUint(occluder.g))
-                occluder_slope = max(occluder_slope, abs(stored.r - occluder.r));
+            if (key == occluder_key) occluder_slope = max(occluder_slope, abs(stored.r - occluder));
         }
     }
-    return own - occluder.r <= 2.0 * (tolerance.reach + occluder_slope) ? seen / 9.0 : 0.0;
+    return own - occluder <= 2.0 * (tolerance.reach + occluder_slope) ? seen / 9.0 : 0.0;
 }
