@@ -7,6 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+import scenes
+
 from native import Settings, SettingsError, Solver, visibility
 from native.gpu import using
 from native.preprocess import VERTEX_LAYER_EXTENSION, draws_per_face
@@ -19,21 +21,14 @@ FACES_AWAY_BIT = 0x1000
 
 
 def room():
-    """A closed 2 m room of subdivided walls (the front of each inward, the ceiling emitting)
+    """A closed 2 m room of subdivided walls (the unit cube's faces, inward, the top emitting)
     with panels inside facing several ways: many clusters, and triangles seen from both
     sides."""
     builder = SceneBuilder()
-    walls = {
-        "floor": [(0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0)],
-        "ceiling": [(0, 0, 2), (0, 2, 2), (2, 2, 2), (2, 0, 2)],
-        "south": [(0, 0, 0), (0, 0, 2), (2, 0, 2), (2, 0, 0)],
-        "north": [(0, 2, 0), (2, 2, 0), (2, 2, 2), (0, 2, 2)],
-        "west": [(0, 0, 0), (0, 2, 0), (0, 2, 2), (0, 0, 2)],
-        "east": [(2, 0, 0), (2, 0, 2), (2, 2, 2), (2, 2, 0)],
-    }
-    for name, corners in walls.items():
-        emission = (1.0,) * 3 if name == "ceiling" else (0.0,) * 3
-        builder.quad(name, corners, emission=emission, two_sided=False, subdivisions=8)
+    for name, corners in scenes.CUBE_FACES.items():
+        emission = (1.0,) * 3 if name == "top" else (0.0,) * 3
+        builder.quad(name, [tuple(2.0 * c for c in corner) for corner in corners],
+                     emission=emission, two_sided=False, subdivisions=8)
     builder.quad("panel_up", [(0.4, 0.4, 0.7), (1.1, 0.4, 0.7), (1.1, 1.0, 0.7),
                               (0.4, 1.0, 0.7)], subdivisions=6)
     builder.quad("panel_tilted", [(1.2, 0.3, 0.3), (1.8, 0.5, 0.5), (1.6, 1.4, 1.6),
