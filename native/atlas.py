@@ -263,8 +263,12 @@ def _chart_layout(scene, members, units, density, max_size, padding):
     packed = page == 0      # xatlas marks a face it dropped 2^32 - 1
     if not packed.any():
         width = height = 0
+    # Numbers only for the charts that hold packed triangles: the moves above can empty a
+    # chart, and tight_packing places a box for every number.
+    numbers, chart[packed] = np.unique(chart[packed], return_inverse=True)
+    chart[~packed] = -1
     return _Layout(texels, chart, packed, np.array([width, height], dtype=np.int64),
-                   chart_count, texels_per_unit < float(density) / units)
+                   len(numbers), texels_per_unit < float(density) / units)
 
 
 def _pieces(scene, members, rows):
