@@ -13,8 +13,8 @@ cannot vary over the surface bake at one sample per texel, the others at MATERIA
 jittered over the texel (Cycles' pixel filter averages what lies inside a texel).
 
 Cycles bakes temporary copies of the evaluated meshes, with temporary copies of their
-materials, in a temporary scene: the user's scene, objects, materials, images, render
-settings and UV maps are never edited, and every temporary block is removed, whatever
+materials, each alone in a temporary scene: the user's scene, objects, materials, images,
+render settings and UV maps are never edited, and every temporary block is removed, whatever
 happens."""
 from dataclasses import dataclass, field, replace
 
@@ -181,7 +181,6 @@ def _make_copies(depsgraph, export, atlas, row_of, bake):
         _set_bake_uv(mesh, surface, corners, export.scene, in_loops=matrix is not None)
         obj = bpy.data.objects.new(TEMP_PREFIX + mesh.name, mesh)
         bake.objects.append(obj)
-        bake.scene.collection.objects.link(obj)
         if matrix is not None:
             obj.matrix_world = matrix
         originals = [None if name is None else bpy.data.materials[name]
@@ -292,18 +291,21 @@ def _bake_pages(copies, atlas, bake):
             image.pixels.foreach_set(np.zeros(width * height * 4, dtype=np.float32))
             for material in copy.obj.data.materials:
                 material.node_tree.nodes.active.image = image
-        for varies in (False, True):
-            group = [copy.obj for copy in chosen if copy.varies == varies]
-            if not group:
-                continue
-            cycles.samples = MATERIAL_SAMPLES if varies else 1
-            with bpy.context.temp_override(scene=settings, view_layer=view_layer,
-                                           selected_objects=group,
-                                           selected_editable_objects=group,
-                                           active_object=group[0], object=group[0]):
-                bpy.ops.object.bake(type=kind, pass_filter={'COLOR'}, uv_layer=BAKE_UV,
-                                    margin=0, use_clear=False, target='IMAGE_TEXTURES',
-                                    use_selected_to_active=False, use_cage=False)
+        # One object at a time in the scene: Cycles syncs the whole scene for each object it
+        # bakes, and these passes need no light from the others.
+        for copy in chosen:
+            cycles.samples = MATERIAL_SAMPLES if copy.varies else 1
+            settings.collection.objects.link(copy.obj)
+            try:
+                with bpy.context.temp_override(scene=settings, view_layer=view_layer,
+                                               selected_objects=[copy.obj],
+                                               selected_editable_objects=[copy.obj],
+                                               active_object=copy.obj, object=copy.obj):
+                    bpy.ops.object.bake(type=kind, pass_filter={'COLOR'}, uv_layer=BAKE_UV,
+                                        margin=0, use_clear=False, target='IMAGE_TEXTURES',
+                                        use_selected_to_active=False, use_cage=False)
+            finally:
+                settings.collection.objects.unlink(copy.obj)
         for copy in chosen:
             image = images[id(copy)]
             width, height = image.size
