@@ -5,14 +5,17 @@ through Luxel's modifier, curves, text and instances through stand-ins of their 
 meshes: addon/reference.py, copies=True).
 
     python bench/bench_interior.py [--density D] [--threshold T] [--samples N]
-                                   [--default-materials] [--json PATH]
+                                   [--default-materials] [--without NAME ...] [--json PATH]
 
 --default-materials gives every Principled BSDF Blender's default specular layer (Specular
-IOR Level 0.5, Roughness 0.5) in place of the file's matte ones. --samples is Cycles': with
-fewer, the small copies' means carry Cycles' own noise (BENCHMARKS.md, the realistic
-interior).
+IOR Level 0.5, Roughness 0.5) in place of the file's matte ones; --without deletes the named
+objects (a light, say) first. --samples is Cycles': with fewer, the small copies' means carry
+Cycles' own noise (BENCHMARKS.md, the realistic interior). Cycles' bakes are kept in
+bench/cache/, keyed by the file, the options that change what Cycles sees and the lightmap
+UV layout, so that a run whose layout did not change bakes Luxel only.
 """
 import argparse
+import hashlib
 import importlib
 from pathlib import Path
 import sys
@@ -26,6 +29,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 import blender as runner  # noqa: E402  (tools/blender.py)
 from common import save_results  # noqa: E402
 
+BOUNCES = 32
+
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -33,6 +38,7 @@ def main():
     parser.add_argument("--threshold", type=float, default=0.02)
     parser.add_argument("--samples", type=int, default=1024)
     parser.add_argument("--default-materials", action="store_true")
+    parser.add_argument("--without", action="append", default=[], metavar="NAME")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     bpy = runner.start_blender()
@@ -41,6 +47,8 @@ def main():
     bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / "interior.blend"))
     scene = bpy.context.scene
     scene.luxel.texel_density, scene.luxel.threshold = args.density, args.threshold
+    for name in args.without:
+        bpy.data.objects.remove(bpy.data.objects[name])
     if args.default_materials:
         for material in bpy.data.materials:
             for node in material.node_tree.nodes if material.node_tree else ():
@@ -62,7 +70,15 @@ def main():
     seconds = time.perf_counter() - started
     stats = scene.luxel.stats
     started = time.perf_counter()
-    cycles = reference.cycles_reference(bpy.context, args.samples, 32, copies=True)
+    cache = ROOT / "bench" / "cache" / f"interior-{_digest(bpy, args)}.npz"
+    if cache.exists():
+        with np.load(cache) as stored:
+            cycles = {name.replace("|", "/"): stored[name] for name in stored.files}
+    else:
+        cycles = reference.cycles_reference(bpy.context, args.samples, BOUNCES, copies=True)
+        cache.parent.mkdir(exist_ok=True)
+        np.savez_compressed(cache, **{name.replace("/", "|"): image
+                                      for name, image in cycles.items()})
     means = reference.object_means(cycles)
     cycles_seconds = time.perf_counter() - started
     luminance = np.array([0.2126, 0.7152, 0.0722])
@@ -84,7 +100,8 @@ def main():
               "unshot_percent": stats.unshot, "density": args.density,
               "threshold": args.threshold, "cycles_samples": args.samples,
               "default_materials": args.default_materials,
-              "cycles_seconds": cycles_seconds, "objects": rows,
+              "cycles_seconds": cycles_seconds, "cycles_cached": cache.name,
+              "without": args.without, "objects": rows,
               "warnings": list(export.warnings)}
     print(f"shown {100 * result['area_shown']:.1f} % of the rendered area; bake {seconds:.1f} s, "
           f"{stats.texels} texels, {stats.shots} shots; Cycles {cycles_seconds:.1f} s")
@@ -93,6 +110,27 @@ def main():
     save_results(args.json, result)
     import os
     os._exit(0)     # bpy's teardown after a bake can crash on some versions
+
+
+def _digest(bpy, args):
+    """What decides Cycles' bakes: the file, the options, and the lightmap UV layout (the
+    lightmap UV maps, the evaluated corners' snapshots and the page sizes)."""
+    writeback = importlib.import_module(runner.MODULE + ".addon.writeback")
+    digest = hashlib.sha256((ROOT / "sample_blends" / "interior.blend").read_bytes())
+    digest.update(repr((args.samples, BOUNCES, args.default_materials,
+                        sorted(args.without))).encode())
+    for mesh in sorted(bpy.data.meshes, key=lambda mesh: mesh.name):
+        for name in (writeback.UV_MAP, writeback.SNAPSHOT_ATTRIBUTE,
+                     writeback.SNAPSHOT_BACK_ATTRIBUTE):
+            attribute = mesh.attributes.get(name)
+            if attribute is not None:
+                width = {'FLOAT2': 2, 'FLOAT_VECTOR': 3}[attribute.data_type]
+                values = np.empty(len(attribute.data) * width, dtype=np.float32)
+                attribute.data.foreach_get("vector", values)
+                digest.update(mesh.name.encode() + name.encode() + values.tobytes())
+    for image in sorted(bpy.data.images, key=lambda image: image.name):
+        digest.update(f"{image.name} {tuple(image.size)}".encode())
+    return digest.hexdigest()[:16]
 
 
 if __name__ == "__main__":
