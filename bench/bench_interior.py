@@ -5,14 +5,17 @@ through Luxel's modifier, curves, text and instances through stand-ins of their 
 meshes: addon/reference.py, copies=True).
 
     python bench/bench_interior.py [--density D] [--threshold T] [--samples N]
-                                   [--default-materials] [--json PATH]
+                                   [--default-materials] [--json PATH] [--cycles-cache PATH]
 
 --default-materials gives every Principled BSDF Blender's default specular layer (Specular
 IOR Level 0.5, Roughness 0.5) in place of the file's matte ones. --samples is Cycles': with
 fewer, the small copies' means carry Cycles' own noise (BENCHMARKS.md, the realistic
-interior).
+interior). --cycles-cache keeps the Cycles bakes in a .npz and reuses them while the file,
+the density, the samples, the materials and the lightmap layout stay the same, so a
+Luxel-only re-run takes the bake's time alone.
 """
 import argparse
+import hashlib
 import importlib
 from pathlib import Path
 import sys
@@ -34,11 +37,13 @@ def main():
     parser.add_argument("--samples", type=int, default=1024)
     parser.add_argument("--default-materials", action="store_true")
     parser.add_argument("--json", type=Path)
+    parser.add_argument("--cycles-cache", type=Path)
     args = parser.parse_args()
     bpy = runner.start_blender()
     addon = runner.luxel().addon
     reference = importlib.import_module(runner.MODULE + ".addon.reference")
-    bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / "interior.blend"))
+    blend = ROOT / "sample_blends" / "interior.blend"
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
     scene = bpy.context.scene
     scene.luxel.texel_density, scene.luxel.threshold = args.density, args.threshold
     if args.default_materials:
@@ -62,7 +67,16 @@ def main():
     seconds = time.perf_counter() - started
     stats = scene.luxel.stats
     started = time.perf_counter()
-    cycles = reference.cycles_reference(bpy.context, args.samples, 32, copies=True)
+    identity = (f"{hashlib.sha256(blend.read_bytes()).hexdigest()} density {args.density} "
+                f"samples {args.samples} bounces 32 default materials {args.default_materials}")
+    cycles = cached_cycles(args.cycles_cache, identity, reference, scene)
+    cached = cycles is not None
+    if not cached:
+        cycles = reference.cycles_reference(bpy.context, args.samples, 32, copies=True)
+        if args.cycles_cache:
+            names = sorted(cycles)
+            np.savez_compressed(args.cycles_cache, identity=identity, names=np.array(names),
+                                **{f"image_{i}": cycles[name] for i, name in enumerate(names)})
     means = reference.object_means(cycles)
     cycles_seconds = time.perf_counter() - started
     luminance = np.array([0.2126, 0.7152, 0.0722])
@@ -84,15 +98,33 @@ def main():
               "unshot_percent": stats.unshot, "density": args.density,
               "threshold": args.threshold, "cycles_samples": args.samples,
               "default_materials": args.default_materials,
-              "cycles_seconds": cycles_seconds, "objects": rows,
+              "cycles_seconds": cycles_seconds, "cycles_cached": cached,
+              "objects": rows,
               "warnings": list(export.warnings)}
     print(f"shown {100 * result['area_shown']:.1f} % of the rendered area; bake {seconds:.1f} s, "
-          f"{stats.texels} texels, {stats.shots} shots; Cycles {cycles_seconds:.1f} s")
+          f"{stats.texels} texels, {stats.shots} shots; Cycles {cycles_seconds:.1f} s"
+          f"{' (kept)' if cached else ''}")
     for warning in export.warnings:
         print("warning:", warning)
     save_results(args.json, result)
     import os
     os._exit(0)     # bpy's teardown after a bake can crash on some versions
+
+
+def cached_cycles(path, identity, reference, scene):
+    """The Cycles bakes kept at ``path`` for this ``identity``, or None: none kept, another
+    identity, or a texel Cycles covered that Luxel's page leaves empty (the layout moved)."""
+    if path is None or not path.exists():
+        return None
+    kept = np.load(path)
+    if str(kept["identity"]) != identity:
+        return None
+    cycles = {str(name): kept[f"image_{i}"] for i, name in enumerate(kept["names"])}
+    for name, image in cycles.items():
+        page = reference._pixels(reference.luxel_page(scene, name))
+        if page.shape != image.shape or not (page[image[..., 3] > 0, 3] > 0).all():
+            return None
+    return cycles
 
 
 if __name__ == "__main__":
