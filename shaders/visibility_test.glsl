@@ -101,30 +101,27 @@ float visible_from_eye(vec3 world, vec3 normal, float surface) {
     uint own_surface = uint(surface);
     // The receiver's own map texel first. If it fails, the receiver may be at a glancing
     // silhouette, the occluder's edge covering the texel's centre but not the receiver: it
-    // gets the share of the 3x3 texels around that see it. Only where the occluder, carried
-    // on at its own slope across those texels, comes within a map texel's reach of the
-    // receiver: a shadow cast from farther is sharp in the map, and the vote would only light
-    // its edge, a texel's width of every shadow brighter. One loop and one call site of
-    // texel_sees(), for llvmpipe's sake as in receiver_common.glsl.
+    // gets the share of the 3x3 texels around that see it. Only where the occluder comes
+    // within twice a map texel's reach of the receiver, as the surface it stands against
+    // does (a block's top over its side, a wall at a floor's foot): a shadow cast from
+    // farther is sharp in the map, and the vote would only light its edge. Not widened by
+    // the occluder's slope across the 3x3: a board across a slot a few centimetres wide,
+    // seen at a grazing angle, changes its distance by a reach from texel to texel, and the
+    // vote lit the slot's shadowed side. One loop and one call site of texel_sees(), for
+    // llvmpipe's sake as in receiver_common.glsl.
     float seen = 0.0;
-    float occluder = 0.0;        // the own map texel's stored distance
-    uint occluder_key = 0u;      // and its surface key
-    float occluder_slope = 0.0;  // how far the occluder's distance changes across the 3x3
     int last_neighbour = u_neighbour_visibility != 0 ? 9 : 0;
     for (int k = -1; k < last_neighbour; ++k) {
         ivec2 offset = k < 0 ? ivec2(0) : ivec2(k % 3 - 1, k / 3 - 1);
         ivec3 n = ivec3(clamp(texel.xy + offset, ivec2(0), ivec2(last)), texel.z);
         vec2 stored = texelFetch(u_visibility, n, 0).rg;
         bool sees = texel_sees(n, stored, local, local_normal, own, own_surface, tolerance);
-        uint key = floatBitsToUint(stored.g) & 0x1FFFu;
         if (k < 0) {
             if (sees) return 1.0;
-            occluder = stored.r;
-            occluder_key = key;
-        } else {
-            if (sees) seen += 1.0;
-            if (key == occluder_key) occluder_slope = max(occluder_slope, abs(stored.r - occluder));
+            if (own - stored.r > 2.0 * tolerance.reach) return 0.0;
+        } else if (sees) {
+            seen += 1.0;
         }
     }
-    return own - occluder <= 2.0 * (tolerance.reach + occluder_slope) ? seen / 9.0 : 0.0;
+    return seen / 9.0;
 }
