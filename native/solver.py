@@ -2,7 +2,7 @@
 evaluation paper), in lightmap space, with the hemicube for visibility.
 
     solver = Solver(scene, Settings(texel_density=40))   # create: atlas, preprocess
-    while solver.step():                                 # one shot at a time
+    while solver.step():                                 # a light, or a batch of patches
         print(solver.progress)                           # shots, unshot fraction, seconds
     pages = solver.result()                              # current lightmaps, any time
     solver.release()                                     # every GL object, in one place
