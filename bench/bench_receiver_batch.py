@@ -13,10 +13,13 @@ Settings.profile on (the GPU waited for after each phase, so the phases add up);
 are the whole bake's: set-up, shots and result(). A receiving texel is one of the tiles the
 pass draws for a shooter (receivers.receiving_tiles), so both variants count the same
 texels: ns per texel per shot is the receivers phase over the sum, over the shots, of their
-receiving tiles' texels. Scenes from bench/scenes (bench/export_scenes.py interior)."""
+receiving tiles' texels. Scenes from bench/scenes (bench/export_scenes.py interior). The machine is shared: beside the wall seconds each bake records
+its process's CPU seconds (llvmpipe's threads included), of the bake and of the receiver
+passes (each waited for), which other jobs move less."""
 import argparse
 import json
 from pathlib import Path
+import resource
 import subprocess
 import sys
 import time
@@ -41,11 +44,22 @@ def bake(source, scene_name, variant):
         receiving[0] += int(((boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])).sum())
         return chosen
     receivers.receiving_tiles = counted
+    receiver_cpu = [0.0]
+    update = receivers.update
+
+    def timed_update(state, *args, **kwargs):
+        started = time.process_time()
+        try:
+            return update(state, *args, **kwargs)
+        finally:
+            state.ctx.finish()
+            receiver_cpu[0] += time.process_time() - started
+    receivers.update = timed_update
 
     scene = Scene.load(ROOT / "bench" / "scenes" / f"{scene_name}.npz")
     settings = Settings(profile=True, **SCENES[scene_name], **VARIANTS.get(variant, {}))
     ctx = create_context()
-    start = time.perf_counter()
+    start, start_cpu = time.perf_counter(), cpu_seconds()
     solver = Solver(scene, settings, ctx=ctx)
     try:
         solver.run()
@@ -53,7 +67,7 @@ def bake(source, scene_name, variant):
         with using(ctx):
             ctx.finish()
             error = ctx.error
-        seconds = time.perf_counter() - start
+        seconds, bake_cpu = time.perf_counter() - start, cpu_seconds() - start_cpu
         receiver_seconds = solver.timings["receivers"]
         return {
             "scene": scene_name, "variant": variant, "texels": solver.texel_count,
@@ -62,11 +76,20 @@ def bake(source, scene_name, variant):
             "gpu_memory_mib": solver.gpu_memory_bytes / 2**20,
             "receiving_texels": receiving[0],
             "ns_per_texel_per_shot": 1e9 * receiver_seconds / max(receiving[0], 1),
-            "seconds": seconds, "phases": dict(solver.timings), "gl_error": error,
+            "receiver_pass_cpu_seconds": receiver_cpu[0],
+            "cpu_ns_per_texel_per_shot": 1e9 * receiver_cpu[0] / max(receiving[0], 1),
+            "seconds": seconds, "cpu_seconds": bake_cpu, "phases": dict(solver.timings),
+            "gl_error": error,
         }
     finally:
         solver.release()
         ctx.release()
+
+
+def cpu_seconds():
+    """This process's CPU seconds, all its threads."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
 
 
 def main():
@@ -100,7 +123,9 @@ def main():
                 print(f"{scene} run {run} {variant}: {row['texels']} texels, "
                       f"{row['shots']} shots, {row['seconds']:.1f} s, receivers "
                       f"{row['phases']['receivers']:.1f} s, "
-                      f"{row['ns_per_texel_per_shot']:.0f} ns/texel/shot, "
+                      f"{row['ns_per_texel_per_shot']:.0f} ns/texel/shot; CPU "
+                      f"{row['cpu_seconds']:.1f} s, receiver passes "
+                      f"{row['cpu_ns_per_texel_per_shot']:.0f} ns/texel/shot, "
                       f"{row['gl_error']}", flush=True)
                 if args.json:
                     args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -21,7 +21,7 @@ PYRAMID_TEXEL_BYTES = 16
 # The visibility map: per texel of each layer the distance and the surface key (RG32F), a
 # layer per cube face (per face of each shooter of a batch) or per hemisphere.
 VISIBILITY_BYTES_PER_TEXEL = 2 * 4
-# The most shooters one receiver pass gathers (receive_patch.frag's MOST_SHOOTERS).
+# The most shooters one receiver pass gathers.
 MOST_BATCHED_SHOOTERS = 8
 # A search for a density that fits steps down by this factor, at most this many times.
 DENSITY_STEP = 0.85

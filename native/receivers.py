@@ -155,10 +155,12 @@ def set_patch_uniforms(state, shooters, views):
 
 def _set_array(program, name, values):
     """Set the first len(values) elements of a uniform array (moderngl writes whole arrays:
-    the rest, which no shooter reads, repeat the first)."""
+    the rest, which no shooter reads, repeat the first; an array of one takes its value)."""
     uniform = program.get(name, None)
     if uniform is not None:
         values = list(values) + [values[0]] * (uniform.array_length - len(values))
+        if uniform.array_length == 1:
+            values = values[0]
     set_uniform(program, name, values)
 
 

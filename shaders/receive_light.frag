@@ -18,7 +18,7 @@ bool in_near_field(vec3 point, float texel_size) {
 
 int shooter_count() { return 1; }   // one light per pass
 
-void select_shooter(int index) {}
+bool select_shooter(int index) { return true; }
 
 vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     vec3 irradiance;

@@ -9,9 +9,9 @@
 #include "visibility_test.glsl"
 #include "receiver_common.glsl"
 
-// The most shooters of a batch (memory.MOST_BATCHED_SHOOTERS).
-const int MOST_SHOOTERS = 8;
-uniform int u_shooter_count;
+// MOST_SHOOTERS, defined where the program is made (preprocess.create_programs), is the
+// bake's batch size (memory.receiver_batch).
+uniform int u_shooter_count;   // this pass's, up to MOST_SHOOTERS
 uniform vec3 u_quads[4 * MOST_SHOOTERS];  // each shooter's quad corners, world space,
                                           // counter-clockwise about the shooter's normal
 uniform vec3 u_centres[MOST_SHOOTERS];
@@ -32,9 +32,16 @@ vec3 shot_centre;
 vec3 shot_radiance;
 vec4 shot_extent;
 
-int shooter_count() { return u_shooter_count; }
+// A batch of one is known here: the pass then compiles without the loop over shooters.
+int shooter_count() { return MOST_SHOOTERS == 1 ? 1 : u_shooter_count; }
 
-void select_shooter(int index) {
+// The shooters of the pass whose light can reach the drawn tile, a bit each
+// (receiver_boxes.vert).
+flat in int v_shooters;
+
+bool select_shooter(int index) {
+    // The tiles a batch of one draws all receive its shooter.
+    if (MOST_SHOOTERS > 1 && (v_shooters & (1 << index)) == 0) return false;
     shooter = index;
     for (int i = 0; i < 4; ++i) shot_quad[i] = u_quads[4 * index + i];
     shot_centre = u_centres[index];
@@ -42,6 +49,7 @@ void select_shooter(int index) {
     shot_extent = u_surface_extents[index];
     u_eye = u_eyes[index];
     u_frame = u_frames[index];
+    return true;
 }
 
 float polygon_form_factor(vec3 p, vec3 n) {

@@ -5,9 +5,6 @@ uniform sampler2D u_position;
 uniform sampler2D u_normal;
 uniform sampler2D u_level;     // subdivision level of the texel
 
-// The shooters of the pass whose light can reach the drawn tile, a bit each
-// (receiver_boxes.vert).
-flat in int v_shooters;
 
 layout(location = 0) out vec4 out_irradiance;  // added to the accumulated irradiance
 layout(location = 1) out vec4 out_unshot;      // added to the unshot radiance
@@ -23,8 +20,9 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side);
 bool in_near_field(vec3 point, float texel_size);
 // How many shooters the pass gathers from.
 int shooter_count();
-// Make shooter 'index' the current one for irradiance_at() and in_near_field().
-void select_shooter(int index);
+// Make shooter 'index' the current one for irradiance_at() and in_near_field(); false where
+// the drawn tile cannot receive it (v_shooters).
+bool select_shooter(int index);
 
 void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
@@ -55,8 +53,7 @@ void main() {
     vec3 bitangent = cross(normal, tangent);
     vec3 irradiance = vec3(0.0);
     for (int shooter = 0; shooter < shooter_count(); ++shooter) {
-        if ((v_shooters & (1 << shooter)) == 0) continue;
-        select_shooter(shooter);
+        if (!select_shooter(shooter)) continue;
         // A subdivided texel gathers at split x split points spread over a square of its
         // area around its sample point (the part of the texel square its surface covers). Not
         // next to the shooter: a texel there re-shoots from its sample point, so light

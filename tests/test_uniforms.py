@@ -76,8 +76,8 @@ def test_bakes_through_every_program_set_declared_uniforms_only(ctx, gl_clean, m
         set_on.setdefault(program.extra["name"], {}).setdefault(name, []).append(value)
         original(program, name, value)   # raises for an undeclared uniform
 
-    def program(self, *files, original=gpu.GLObjects.program):
-        made_program = original(self, *files)
+    def program(self, *files, original=gpu.GLObjects.program, **options):
+        made_program = original(self, *files, **options)
         made.add(made_program.extra["name"])
         return made_program
 
