@@ -36,23 +36,28 @@ DEFAULT_DENSITY = 4.0
 
 
 class CpuTimer:
-    """Counts the CPU seconds of every visibility.render and its GPU sync."""
+    """Counts the CPU seconds of every visibility.render and render_batch (a batch of
+    shooters' maps) and its GPU sync."""
 
     def __init__(self):
         self.seconds = 0.0
-        self.render = visibility.render
-        visibility.render = self
+        self.originals = {name: getattr(visibility, name) for name in ("render", "render_batch")}
+        for name, function in self.originals.items():
+            setattr(visibility, name, self.timed(function))
 
-    def __call__(self, state, *args, **kwargs):
-        started = time.process_time()
-        try:
-            return self.render(state, *args, **kwargs)
-        finally:
-            state.ctx.finish()
-            self.seconds += time.process_time() - started
+    def timed(self, function):
+        def call(state, *args, **kwargs):
+            started = time.process_time()
+            try:
+                return function(state, *args, **kwargs)
+            finally:
+                state.ctx.finish()
+                self.seconds += time.process_time() - started
+        return call
 
     def restore(self):
-        visibility.render = self.render
+        for name, function in self.originals.items():
+            setattr(visibility, name, function)
 
 
 def scene_named(name):

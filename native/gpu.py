@@ -143,14 +143,20 @@ def using(ctx):
         _restore(saved)
 
 
-def load_shader(name):
-    """Source of shaders/<name>, with #include "file" lines replaced by that file."""
+def load_shader(name, defines=None):
+    """Source of shaders/<name>, with #include "file" lines replaced by that file, and a
+    #define after the #version line for each (name, value) of ``defines``."""
     def expand(path, seen):
         if path in seen:
             raise RuntimeError(f"recursive #include of {path}")
         text = (SHADER_DIR / path).read_text()
         return _INCLUDE.sub(lambda m: expand(m.group(1), seen | {path}), text)
-    return expand(name, frozenset())
+    source = expand(name, frozenset())
+    if not defines:
+        return source
+    version, rest = source.split("\n", 1)
+    return "\n".join([version] + [f"#define {key} {value}" for key, value in defines.items()]
+                      + [rest])
 
 
 def declared_uniforms(*sources):
@@ -263,12 +269,12 @@ class GLObjects:
     def buffer(self, data=None, reserve=0):
         return self.keep(self.ctx.buffer(data, reserve=reserve))
 
-    def program(self, vertex, fragment, geometry=None):
-        """A program from shader files; its ``extra`` names them and the uniforms they declare
-        (set_uniform)."""
-        sources = [load_shader(vertex), load_shader(fragment)]
+    def program(self, vertex, fragment, geometry=None, *, defines=None):
+        """A program from shader files, each given ``defines`` (load_shader); its ``extra``
+        names them and the uniforms they declare (set_uniform)."""
+        sources = [load_shader(vertex, defines), load_shader(fragment, defines)]
         if geometry:
-            sources.append(load_shader(geometry))
+            sources.append(load_shader(geometry, defines))
         program = self.keep(self.ctx.program(
             vertex_shader=sources[0], fragment_shader=sources[1],
             geometry_shader=sources[2] if geometry else None))

@@ -18,8 +18,11 @@ BYTES_PER_TEXEL = 3 * 16 + 8 + 8 + 1
 # The selection pyramid's first level holds a texel (RGBA32F) per block; the levels above
 # it add a third.
 PYRAMID_TEXEL_BYTES = 16
-# The visibility map as budgeted: its side squared times this.
-VISIBILITY_BYTES_PER_TEXEL = 6 * 4
+# The visibility map: per texel of each layer the distance and the surface key (RG32F), a
+# layer per cube face (per face of each shooter of a batch) or per hemisphere.
+VISIBILITY_BYTES_PER_TEXEL = 2 * 4
+# The most shooters one receiver pass gathers.
+MOST_BATCHED_SHOOTERS = 8
 # A search for a density that fits steps down by this factor, at most this many times.
 DENSITY_STEP = 0.85
 DENSITY_STEPS = 30
@@ -28,16 +31,39 @@ DENSITY_STEPS = 30
 SURFACE_SHARE_GUESS = 0.5
 
 
-def memory_needed(atlas, settings, map_size):
-    """Bytes of the maps of ``atlas``'s pages, its selection pyramid and the visibility map."""
+def memory_needed(atlas, settings, map_size, batch=1):
+    """Bytes of the maps of ``atlas``'s pages, its selection pyramid and the visibility map
+    of a receiver pass of ``batch`` shooters."""
     texels = atlas.width * atlas.height * atlas.page_count
     block = 1 << settings.shoot_level
     pyramid = texels / (block * block) * PYRAMID_TEXEL_BYTES * 4 / 3
-    visibility = map_size ** 2 * VISIBILITY_BYTES_PER_TEXEL
+    visibility = map_size ** 2 * visibility_layers(settings, batch) * VISIBILITY_BYTES_PER_TEXEL
     return int(texels * BYTES_PER_TEXEL + pyramid + visibility)
 
 
+def visibility_layers(settings, batch):
+    """The visibility map's layers: a hemicube's six faces per shooter of the batch (a
+    light's view all round takes six too), or the hemisphere projections' two."""
+    return 6 * batch if settings.projection == "HEMICUBE" else 2
+
+
+def receiver_batch(atlas, settings, map_size):
+    """How many shooters one receiver pass gathers: those of a selection, at most
+    MOST_BATCHED_SHOOTERS, as many as the memory limit leaves room for their visibility maps.
+    One with Settings.batched_receivers off, with a hemisphere projection (the batch's maps
+    are hemicubes) and with adaptive subdivision (which tests each shot's shadows against its
+    map before the receivers gather it)."""
+    if (not settings.batched_receivers or settings.projection != "HEMICUBE"
+            or settings.subdivision == "ADAPTIVE"):
+        return 1
+    batch = min(settings.shooters_per_selection, MOST_BATCHED_SHOOTERS)
+    while batch > 1 and memory_needed(atlas, settings, map_size, batch) > settings.memory_limit:
+        batch -= 1
+    return batch
+
+
 def fits(atlas, settings, map_size, max_texture_size):
+    """Whether the atlas fits, with a receiver pass of one shooter at least."""
     return (memory_needed(atlas, settings, map_size) <= settings.memory_limit
             and max(atlas.width, atlas.height) <= max_texture_size)
 

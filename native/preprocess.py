@@ -105,7 +105,8 @@ def create_gpu_state(state):
     """The programs and their constant uniforms, the material textures and the pages' maps."""
     gl = state.gl
     state.per_face_visibility = draws_per_face(state.ctx, state.settings)
-    state.programs = create_programs(gl, state.settings, per_face=state.per_face_visibility)
+    state.programs = create_programs(gl, state.settings, per_face=state.per_face_visibility,
+                                     receiver_batch=state.receiver_batch)
     state.fullscreen = {name: gl.vertex_array(state.programs[name], [])
                         for name in ("block", "argmax")}
     set_constant_uniforms(state)
@@ -116,9 +117,11 @@ def create_gpu_state(state):
                    for _ in range(state.packed.page_count)]
 
 
-def create_programs(gl, settings, *, per_face):
+def create_programs(gl, settings, *, per_face, receiver_batch):
     """The programs by name; ``per_face``: the cube's faces drawn one by one
-    (draws_per_face), not routed by a geometry shader."""
+    (draws_per_face), not routed by a geometry shader; ``receiver_batch``: the shooters a
+    receiver pass gathers (a batch of one compiles to a pass without the loop over them,
+    which on llvmpipe cost a shot's pass about a third more)."""
     programs = {
         "attributes": gl.program("raster.vert", "raster_attributes.frag", "raster.geom"),
         "area": gl.program("raster.vert", "raster_area.frag", "raster.geom"),
@@ -134,7 +137,8 @@ def create_programs(gl, settings, *, per_face):
             "visibility_hemisphere_tessellated.geom"),
         "nonlinear": gl.program("visibility.vert", "visibility_nonlinear.frag",
                                 "visibility_nonlinear.geom"),
-        "patch": gl.program("receiver_boxes.vert", "receive_patch.frag"),
+        "patch": gl.program("receiver_boxes.vert", "receive_patch.frag",
+                            defines={"MOST_SHOOTERS": receiver_batch}),
         "light": gl.program("receiver_boxes.vert", "receive_light.frag"),
         "take": gl.program("take_unshot.vert", "take_unshot.frag"),
     }

@@ -1,9 +1,11 @@
 """Receiver update and lights: every receiving texel gathers a shot's light against the
 visibility map (receive_patch.frag for a patch, receive_light.frag for a point, spot or sun
 light) by additive blending into its page's irradiance and unshot maps; a patch first takes
-what it shoots from its texels. The pass draws only the tiles of texels that can receive the
-shot: not those behind a patch's plane, nor flat ones facing away from it. The
-lights' views, uniforms and power, and the sky as suns."""
+what it shoots from its texels. Patches shoot in batches (memory.receiver_batch): one pass
+over the texels gathers every shooter of the batch, each against its own visibility map, and
+blends once. The pass draws only the tiles of texels that can receive a shooter (not those
+behind its plane, nor flat ones facing away from it), and a tile gathers only from the
+shooters it can receive. The lights' views, uniforms and power, and the sky as suns."""
 from dataclasses import dataclass
 import math
 
@@ -11,7 +13,7 @@ import moderngl
 import numpy as np
 
 from .geometry import frame_around
-from .gpu import render_state, set_uniform
+from .gpu import buffer_content, render_state, set_uniform
 from .scene import SpotLight, SunLight
 from .state import NO_SURFACE, View, blend_points, decode_normals, read_map
 
@@ -25,6 +27,9 @@ TILE = 8
 FLAT_NORMAL_DEVIATION = 1e-3
 # receiver_boxes.vert's vertices: two triangles per tile, (x, y) each from its box.
 BOX_CORNERS = np.array([(0, 1), (2, 1), (2, 3), (0, 1), (2, 3), (0, 3)])
+# Per vertex: the corner (x, y) and the bits of the shooters the tile receives.
+BOX_LAYOUT = (("in_corner", 2), ("in_shooters", 1))
+BOX_VERTEX_BYTES = 3 * 4
 
 
 @dataclass
@@ -41,7 +46,7 @@ class ReceiverTiles:
     normal: np.ndarray          # (T, 3)
     nearest_plane: np.ndarray   # (T,)
     normal_deviation: np.ndarray  # (T,)
-    vbo: object                 # the boxes drawn for a shot, BOX_CORNERS each
+    vbo: object                 # the boxes drawn for a pass, BOX_CORNERS each (BOX_LAYOUT)
     vaos: dict                  # per receiver program
 
 
@@ -52,8 +57,9 @@ def create_tiles(state):
         for column, values in zip(columns, _page_tiles(index, page)):
             column.append(values)
     page, boxes, low, high, normal, nearest, deviation = (np.concatenate(c) for c in columns)
-    vbo = state.gl.buffer(reserve=max(len(page), 1) * len(BOX_CORNERS) * 2 * 4)
-    vaos = {kind: state.gl.vertex_array(state.programs[kind], [(vbo, "2f", "in_corner")])
+    vbo = state.gl.buffer(reserve=max(len(page), 1) * len(BOX_CORNERS) * BOX_VERTEX_BYTES)
+    vaos = {kind: state.gl.vertex_array(state.programs[kind],
+                                        [buffer_content(state.programs[kind], vbo, BOX_LAYOUT)])
             for kind in ("patch", "light")}
     return ReceiverTiles(page=page, boxes=boxes, low=low, high=high, normal=normal,
                          nearest_plane=nearest, normal_deviation=deviation, vbo=vbo, vaos=vaos)
@@ -128,14 +134,34 @@ def take_unshot(state, shooter):
         power[where[emitting[where] == flat]] = 0.0
 
 
-def set_patch_uniforms(state, shooter):
+def set_patch_uniforms(state, shooters, views):
+    """The batch's shooters, in the order of their visibility maps' layers, and the views
+    those were drawn from (the same but for the eye: every map is a hemicube's, or the batch
+    is one shooter's)."""
     program = state.programs["patch"]
-    set_uniform(program, "u_quad", [tuple(corner) for corner in shooter.quad])
-    set_uniform(program, "u_centre", tuple(shooter.centre))
-    set_uniform(program, "u_radiance", tuple(shooter.radiance))
+    views[0].set_uniforms(program, state)
+    set_uniform(program, "u_shooter_count", len(shooters))
+    _set_array(program, "u_quads", [tuple(corner) for shooter in shooters
+                                    for corner in shooter.quad])
+    _set_array(program, "u_centres", [tuple(shooter.centre) for shooter in shooters])
+    _set_array(program, "u_radiances", [tuple(shooter.radiance) for shooter in shooters])
     # An empty rectangle: no texel is across a thin gap from this shooter.
-    set_uniform(program, "u_surface_extent",
-                NO_SURFACE if shooter.extent is None else shooter.extent)
+    _set_array(program, "u_surface_extents", [
+        NO_SURFACE if shooter.extent is None else tuple(shooter.extent) for shooter in shooters])
+    _set_array(program, "u_eyes", [tuple(view.eye) for view in views])
+    _set_array(program, "u_frames", [tuple(np.asarray(view.frame, dtype=np.float64).T.ravel())
+                                      for view in views])
+
+
+def _set_array(program, name, values):
+    """Set the first len(values) elements of a uniform array (moderngl writes whole arrays:
+    the rest, which no shooter reads, repeat the first; an array of one takes its value)."""
+    uniform = program.get(name, None)
+    if uniform is not None:
+        values = list(values) + [values[0]] * (uniform.array_length - len(values))
+        if uniform.array_length == 1:
+            values = values[0]
+    set_uniform(program, name, values)
 
 
 def light_view(light, bounds):
@@ -173,18 +199,30 @@ def light_power(light, radius):
     return light.emitted_power()
 
 
-def update(state, visibility, view, kind, receiving=None):
-    """The receivers gather the shot (program ``kind``: "patch" or "light"): the tiles
-    ``receiving`` marks (receiving_tiles), or all."""
+def receiving_shooters(tiles, shooters, epsilon):
+    """(T,) per tile the bits of the shooters (by their index in the batch) it can receive."""
+    bits = np.zeros(len(tiles.page), dtype=np.int64)
+    for index, shooter in enumerate(shooters):
+        bits |= receiving_tiles(tiles, shooter, epsilon).astype(np.int64) << index
+    return bits
+
+
+def update(state, visibility, kind, shooters=None):
+    """The receivers gather the pass's light (program ``kind``: "patch", the batch whose
+    uniforms set_patch_uniforms set, or "light"): the tiles ``shooters`` gives bits of
+    (receiving_shooters), or all of them from the one light."""
     program = state.programs[kind]
     tiles = state.receiver_tiles
-    view.set_uniforms(program, state)
-    chosen = np.arange(len(tiles.page)) if receiving is None else np.flatnonzero(receiving)
+    if shooters is None:
+        shooters = np.ones(len(tiles.page), dtype=np.int64)
+    chosen = np.flatnonzero(shooters)
     chosen = chosen[np.argsort(tiles.page[chosen], kind="stable")]
-    corners = tiles.boxes[chosen][:, BOX_CORNERS].astype(np.float32)   # (tiles, 6, 2)
-    if not len(corners):
+    if not len(chosen):
         return
-    tiles.vbo.write(corners.tobytes())
+    vertices = np.empty((len(chosen), len(BOX_CORNERS), 3), dtype=np.float32)
+    vertices[..., :2] = tiles.boxes[chosen][:, BOX_CORNERS]
+    vertices[..., 2] = shooters[chosen, None]
+    tiles.vbo.write(vertices.tobytes())
     ends = np.searchsorted(tiles.page[chosen], np.arange(len(state.pages) + 1))
     with render_state(state.ctx, blend=moderngl.FUNC_ADD):
         visibility.texture.use(location=0)

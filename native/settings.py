@@ -247,6 +247,11 @@ SETTINGS = (
             exposed=Exposed(label="Adaptive Shoot Level", option="--adaptive-shoot-level")),
     Setting(name="shooters_per_selection", kind=int, default=8, unit="shots", minimum=1,
             maximum=64, help="Shots per GPU read-back; 1 is the paper's one by one"),
+    # memory.receiver_batch: not with a hemisphere projection or adaptive subdivision.
+    Setting(name="batched_receivers", kind=bool, default=True,
+            help="The receiver pass gathers the shooters of a selection (up to 8) in one pass "
+            "over the texels, against a hemicube each: one read of each texel's maps and one "
+            "blend for the batch"),
     # result() adds it; the ledger and the unshot fraction leave it out.
     Setting(name="ambient", kind=bool, default=True,
             help="Add the light still unshot after its first bounce as even light where the "

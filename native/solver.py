@@ -2,7 +2,7 @@
 evaluation paper), in lightmap space, with the hemicube for visibility.
 
     solver = Solver(scene, Settings(texel_density=40))   # create: atlas, preprocess
-    while solver.step():                                 # one shot at a time
+    while solver.step():                                 # a light, or a batch of patches
         print(solver.progress)                           # shots, unshot fraction, seconds
     pages = solver.result()                              # current lightmaps, any time
     solver.release()                                     # every GL object, in one place
@@ -152,8 +152,10 @@ class Solver:
         return self._set_up_pieces is not None
 
     def step(self):
-        """Shoot once: the pending lights first, then the texel patches with the most unshot
-        power. Returns False, shooting nothing, once converged or out of shots."""
+        """Shoot once: the pending lights first, one at a time, then the texel patches with
+        the most unshot power, a batch of a selection's at a time (memory.receiver_batch;
+        Progress.shots counts each). Returns False, shooting nothing, once converged or out
+        of shots."""
         if self.finished or self.ctx is None:
             return False
         while self.set_up_step():
@@ -167,12 +169,18 @@ class Solver:
             if not self._queue.shots and not self._select_shots():
                 self.finished = True
                 return False
-            shot = self._queue.shots.pop(0)
+            queue = self._queue
+            shot = queue.shots.pop(0)
             if isinstance(shot, Shooter):
-                self._shoot_patch(shot)
+                batch = [shot]
+                most = min(self._state.receiver_batch, self.shot_limit - self.shots)
+                while len(batch) < most and queue.shots and isinstance(queue.shots[0], Shooter):
+                    batch.append(queue.shots.pop(0))
+                self._shoot_patches(batch)
+                self.shots += len(batch)
             else:
                 self._shoot_light(shot)
-            self.shots += 1
+                self.shots += 1
         return True
 
     def run(self, callback=None):
@@ -299,7 +307,9 @@ class Solver:
         state.patch_level = selection.patch_level(
             settings, float(scene.triangle_area[state.packed.triangles].sum()))
         self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
-        self._memory_bytes = memory.memory_needed(state.packed, settings, state.map_size)
+        state.receiver_batch = memory.receiver_batch(state.packed, settings, state.map_size)
+        self._memory_bytes = memory.memory_needed(state.packed, settings, state.map_size,
+                                                  state.receiver_batch)
         memory.check_memory(state.packed, settings, self._memory_bytes,
                             self._fits(state.packed, state.map_size), self._fits_at)
         yield self._preprocessing(0)
@@ -428,23 +438,30 @@ class Solver:
                     made.append(shooter)
         return made
 
-    def _shoot_patch(self, shooter):
+    def _shoot_patches(self, batch):
+        """Shoot a batch of patches: each one's visibility map, what each takes from its
+        texels, then one receiver pass for them all (the texels receive the sum, in any
+        order), then each one's thin gaps."""
         state, energy = self._state, self._energy
-        shot_power = math.pi * shooter.area * shooter.radiance
-        energy.shot_power = energy.shot_power + shot_power
-        # The shooter looks from just above its surface and clips what lies behind it.
-        view = View(eye=shooter.centre + shooter.frame[:, 2] * state.bounds.epsilon,
-                    frame=shooter.frame, orthographic=False)
-        self._timed("visibility", visibility.render, state, self._visibility, view,
-                    faces=visibility.FRONT_FACES, clip_below=True)
-        self._maybe_subdivide(view, float(np.mean(shot_power)), clip_below=True)
-        receivers.take_unshot(state, shooter)
-        receivers.set_patch_uniforms(state, shooter)
-        receiving = receivers.receiving_tiles(state.receiver_tiles, shooter, state.bounds.epsilon)
-        self._timed("receivers", receivers.update, state, self._visibility, view, "patch",
+        powers = [math.pi * shooter.area * shooter.radiance for shooter in batch]
+        energy.shot_power = energy.shot_power + sum(powers)
+        # Each shooter looks from just above its surface and clips what lies behind it.
+        views = [View(eye=shooter.centre + shooter.frame[:, 2] * state.bounds.epsilon,
+                      frame=shooter.frame, orthographic=False) for shooter in batch]
+        self._timed("visibility", visibility.render_batch, state, self._visibility, views)
+        for shooter, view, power in zip(batch, views, powers):
+            # Adaptive subdivision shoots one at a time (memory.receiver_batch): the map holds
+            # this view alone.
+            self._maybe_subdivide(view, float(np.mean(power)), clip_below=True)
+            receivers.take_unshot(state, shooter)
+        receivers.set_patch_uniforms(state, batch, views)
+        receiving = receivers.receiving_shooters(state.receiver_tiles, batch,
+                                                 state.bounds.epsilon)
+        self._timed("receivers", receivers.update, state, self._visibility, "patch",
                     receiving)
-        if shooter.extent is not None:
-            self._timed("receivers", thin_gaps.close, state, self._gaps, shooter)
+        for shooter in batch:
+            if shooter.extent is not None:
+                self._timed("receivers", thin_gaps.close, state, self._gaps, shooter)
 
     def _shoot_light(self, light):
         state, energy = self._state, self._energy
@@ -459,7 +476,8 @@ class Solver:
                 1.0 - visibility.covered_share(state, self._visibility))
         self._maybe_subdivide(view, float(np.mean(power)), clip_below=False)
         energy.shot_power = energy.shot_power + power
-        self._timed("receivers", receivers.update, state, self._visibility, view, "light")
+        view.set_uniforms(state.programs["light"], state)
+        self._timed("receivers", receivers.update, state, self._visibility, "light")
 
     def _maybe_subdivide(self, view, power, *, clip_below):
         queue = self._queue

@@ -73,6 +73,7 @@ class BakeState:
     receiver_tiles: object = None  # receivers.ReceiverTiles: what the receiver pass draws
     programs: dict = None
     per_face_visibility: bool = False   # the cube drawn face by face (preprocess.draws_per_face)
+    receiver_batch: int = 1     # shooters per receiver pass (memory.receiver_batch)
     fullscreen: dict = None     # vertex arrays drawing one screen-filling triangle
     material_textures: dict = None   # Scene's texture lists, by name, on the GPU
     pages: list = None

@@ -3,10 +3,12 @@ stereographic or nonlinear hemispheres, or the sun's orthographic window), into 
 occluding triangle is drawn with its surface number; the receivers test against it. The
 occluders lie in clusters of nearby triangles: a one-sided shooter draws only the clusters
 that reach above its plane, and a cube drawn face by face only those that reach into each
-face."""
+face. A batch of shooters draws a hemicube each into one map, six layers each
+(render_batch)."""
 import moderngl
 import numpy as np
 
+from . import memory
 from .geometry import TrianglePlanes
 from .gpu import render_state, set_uniform
 from .state import VisibilityMap
@@ -47,9 +49,10 @@ CLUSTER_PAD = 2.0 ** -18
 
 
 def create(state):
-    """The visibility map and the vertex arrays that draw the occluders into it."""
+    """The visibility map (memory.visibility_layers: a cube's six faces per shooter of a
+    batch, or two hemispheres) and the vertex arrays that draw the occluders into it."""
     gl, scene, settings, programs = state.gl, state.scene, state.settings, state.programs
-    layers = 6 if settings.projection == "HEMICUBE" else 2
+    layers = memory.visibility_layers(settings, state.receiver_batch)
     texture = gl.texture_array((state.map_size, state.map_size, layers), 2)
     framebuffer = gl.framebuffer([texture])
     # Only occluders go into the visibility buffer; at least one triangle keeps it valid.
@@ -153,6 +156,27 @@ def render(state, visibility, view, *, faces, clip_below):
     behind the eye's plane (a one-sided shooter). Only the clusters of occluders that reach
     what is drawn are drawn: above the eye's plane, and with the cube drawn face by face,
     into each face."""
+    _clear(visibility)
+    _draw(state, visibility, view, faces=faces, clip_below=clip_below, first_layer=0)
+
+
+def render_batch(state, visibility, views):
+    """The hemicubes in front of a batch of shooters' ``views``, each behind its plane
+    clipped, the i-th into the six layers from 6 i (receive_patch.frag). A batch of one may
+    use any projection (render)."""
+    _clear(visibility)
+    for index, view in enumerate(views):
+        _draw(state, visibility, view, faces=FRONT_FACES, clip_below=True,
+              first_layer=ALL_FACES * index)
+
+
+def _clear(visibility):
+    visibility.framebuffer.use()
+    visibility.framebuffer.clear(CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE)
+
+
+def _draw(state, visibility, view, *, faces, clip_below, first_layer):
+    """render()'s drawing, into the layers from ``first_layer`` (a hemicube's only)."""
     settings = state.settings
     hemisphere = settings.projection != "HEMICUBE" and not view.orthographic
     name = program_for(settings, view.orthographic)
@@ -165,8 +189,7 @@ def render(state, visibility, view, *, faces, clip_below):
                     else faces)
     if name == "visibility":
         set_uniform(program, "u_clip_below", int(clip_below))
-    visibility.framebuffer.use()
-    visibility.framebuffer.clear(CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE, CLEAR_DISTANCE)
+        set_uniform(program, "u_first_layer", first_layer)
     clip = clip_below or name.startswith("hemisphere")
     above = view.frame[:, 2][None, :] if clip_below else np.zeros((0, 3))
     if not per_face:

@@ -3,8 +3,15 @@
 // The hemicube is faces 0-4. In orthographic mode (the sun) there is one face looking along +n.
 // The hemisphere projections use two layers instead: 0 the hemisphere around +n, 1 around -n,
 // each projected stereographically onto the unit disc.
+#ifdef VIEW_PER_SHOOTER
+// The batched receiver pass (receive_patch.frag) sets the eye and frame of each shooter of
+// its batch in turn.
+vec3 u_eye;
+mat3 u_frame;
+#else
 uniform vec3 u_eye;
 uniform mat3 u_frame;        // columns t, b, n
+#endif
 uniform int u_orthographic;
 uniform float u_ortho_half;  // half width of the orthographic window
 uniform float u_near;

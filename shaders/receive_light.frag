@@ -16,6 +16,10 @@ bool in_near_field(vec3 point, float texel_size) {
     return false;  // point lights and suns have no extent
 }
 
+int shooter_count() { return 1; }   // one light per pass
+
+bool select_shooter(int index) { return true; }
+
 vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     vec3 irradiance;
     if (u_light_kind == 2) {
@@ -36,5 +40,5 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
         }
         irradiance = u_light_value * mask * cos_r / dist2;
     }
-    return irradiance * visible_from_eye(point, normal, receiver_surface);
+    return irradiance * visible_from_eye(point, normal, receiver_surface, 0);
 }

@@ -1,25 +1,62 @@
 #version 410
-// Receiver update for a shooting patch: every receiving texel visible from the shooter gains
-// irradiance pi * L * F, with F the exact point-to-polygon form factor (Lambert's formula)
-// of the shooter's quad clipped to the receiver's horizon: bounded however close they are.
+// Receiver update for a batch of shooting patches, gathered one after another per texel in
+// one pass: every receiving texel visible from a shooter gains irradiance pi * L * F, with F
+// the exact point-to-polygon form factor (Lambert's formula) of the shooter's quad clipped to
+// the receiver's horizon: bounded however close they are. Each shooter's visibility map is
+// the six layers from 6 x its index.
+#define VIEW_PER_SHOOTER
 #include "projection.glsl"
 #include "visibility_test.glsl"
 #include "receiver_common.glsl"
 
-uniform vec3 u_quad[4];        // shooter quad corners, world space, counter-clockwise about
-                               // the shooter's normal
-uniform vec3 u_centre;         // shooter centre
-uniform vec3 u_radiance;       // unshot radiance leaving the front face (shooters are
-                               // one-sided: a two-sided emitter shoots from a mirrored copy)
-uniform vec4 u_surface_extent; // u min, u max, v min, v max of the shooter's surface along
-                               // u_frame's tangent and bitangent, from u_centre
+// MOST_SHOOTERS, defined where the program is made (preprocess.create_programs), is the
+// bake's batch size (memory.receiver_batch).
+uniform int u_shooter_count;   // this pass's, up to MOST_SHOOTERS
+uniform vec3 u_quads[4 * MOST_SHOOTERS];  // each shooter's quad corners, world space,
+                                          // counter-clockwise about the shooter's normal
+uniform vec3 u_centres[MOST_SHOOTERS];
+uniform vec3 u_radiances[MOST_SHOOTERS];  // unshot radiance leaving the front face (shooters
+                                          // are one-sided: a two-sided emitter shoots from a
+                                          // mirrored copy)
+uniform vec4 u_surface_extents[MOST_SHOOTERS];  // u min, u max, v min, v max of the shooter's
+                                                // surface along its frame's tangent and
+                                                // bitangent, from its centre
+uniform vec3 u_eyes[MOST_SHOOTERS];       // where each shooter's map was drawn from
+uniform mat3 u_frames[MOST_SHOOTERS];     // and its frame (columns t, b, n)
 uniform float u_thin_gap;      // a gap under this share of a texel is thin
+
+// The current shooter (select_shooter): its index and values.
+int shooter;
+vec3 shot_quad[4];
+vec3 shot_centre;
+vec3 shot_radiance;
+vec4 shot_extent;
+
+// A batch of one is known here: the pass then compiles without the loop over shooters.
+int shooter_count() { return MOST_SHOOTERS == 1 ? 1 : u_shooter_count; }
+
+// The shooters of the pass whose light can reach the drawn tile, a bit each
+// (receiver_boxes.vert).
+flat in int v_shooters;
+
+bool select_shooter(int index) {
+    // The tiles a batch of one draws all receive its shooter.
+    if (MOST_SHOOTERS > 1 && (v_shooters & (1 << index)) == 0) return false;
+    shooter = index;
+    for (int i = 0; i < 4; ++i) shot_quad[i] = u_quads[4 * index + i];
+    shot_centre = u_centres[index];
+    shot_radiance = u_radiances[index];
+    shot_extent = u_surface_extents[index];
+    u_eye = u_eyes[index];
+    u_frame = u_frames[index];
+    return true;
+}
 
 float polygon_form_factor(vec3 p, vec3 n) {
     vec3 poly[5];
     int count = 0;
     for (int i = 0; i < 4; ++i) {
-        vec3 a = u_quad[i] - p, b = u_quad[(i + 1) % 4] - p;
+        vec3 a = shot_quad[i] - p, b = shot_quad[(i + 1) % 4] - p;
         float da = dot(a, n), db = dot(b, n);
         if (da >= 0.0) poly[count++] = a;
         if ((da >= 0.0) != (db >= 0.0)) poly[count++] = a + (b - a) * (da / (da - db));
@@ -45,8 +82,8 @@ float polygon_form_factor(vec3 p, vec3 n) {
 }
 
 bool in_near_field(vec3 point, float texel_size) {
-    float reach = 0.5 * length(u_quad[2] - u_quad[0]) + 2.0 * texel_size;
-    return distance(point, u_centre) < reach;
+    float reach = 0.5 * length(shot_quad[2] - shot_quad[0]) + 2.0 * texel_size;
+    return distance(point, shot_centre) < reach;
 }
 
 // A receiver facing the shooter across a gap under u_thin_gap of its texel, its sample
@@ -59,19 +96,19 @@ bool in_near_field(vec3 point, float texel_size) {
 bool across_thin_gap(vec3 from_shooter, float height, vec3 normal, float side) {
     vec2 at = vec2(dot(from_shooter, u_frame[0]), dot(from_shooter, u_frame[1]));
     return height < u_thin_gap * side && dot(normal, u_frame[2]) < -0.99
-        && all(greaterThanEqual(at, u_surface_extent.xz - side))
-        && all(lessThanEqual(at, u_surface_extent.yw + side));
+        && all(greaterThanEqual(at, shot_extent.xz - side))
+        && all(lessThanEqual(at, shot_extent.yw + side));
 }
 
 vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
-    vec3 from_shooter = point - u_centre;
+    vec3 from_shooter = point - shot_centre;
     float height = dot(from_shooter, u_frame[2]);
     // Only what lies in front. The shooter's own plane gets nothing: Lambert's formula jumps
     // to 1 at a point inside a coplanar polygon, and rounding puts such points on either side.
     if (height <= u_epsilon || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
     // Across a thin gap the solver gives the light (across_thin_gap()).
     if (near_side > 0.0 && across_thin_gap(from_shooter, height, normal, near_side)) return vec3(0.0);
-    float visible = visible_from_eye(point, normal, receiver_surface);
+    float visible = visible_from_eye(point, normal, receiver_surface, 6 * shooter);
     if (visible <= 0.0) return vec3(0.0);
-    return PI * u_radiance * polygon_form_factor(point, normal) * visible;
+    return PI * shot_radiance * polygon_form_factor(point, normal) * visible;
 }

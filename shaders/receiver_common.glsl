@@ -1,8 +1,10 @@
 // Receiver pass shared by the patch and light shaders: each defines irradiance_at(), the
-// irradiance a point gets from the current shooter (0 where hidden or facing away).
+// irradiance a point gets from the current shooter (0 where hidden or facing away), and the
+// shooters the pass gathers from (a batch of patches, or one light), one after another.
 uniform sampler2D u_position;
 uniform sampler2D u_normal;
 uniform sampler2D u_level;     // subdivision level of the texel
+
 
 layout(location = 0) out vec4 out_irradiance;  // added to the accumulated irradiance
 layout(location = 1) out vec4 out_unshot;      // added to the unshot radiance
@@ -16,6 +18,11 @@ float receiver_surface;   // the number of the texel's surface, for visible_from
 vec3 irradiance_at(vec3 point, vec3 normal, float near_side);
 // Whether the texel lies so close to the shooter that it gathers at its sample point only.
 bool in_near_field(vec3 point, float texel_size);
+// How many shooters the pass gathers from.
+int shooter_count();
+// Make shooter 'index' the current one for irradiance_at() and in_near_field(); false where
+// the drawn tile cannot receive it (v_shooters).
+bool select_shooter(int index);
 
 void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
@@ -27,14 +34,7 @@ void main() {
     vec3 normal = decode_normal(stored_normal.xy);
     // A texel's side on the surface: its area's root (less than a texel edge at chart borders).
     float side = sqrt(position.w);
-    // A subdivided texel gathers at split x split points spread over a square of its area
-    // around its sample point (the part of the texel square its surface covers). Not next to
-    // the shooter: a texel there re-shoots from its sample point, so light gathered over the
-    // rest of its square (say in a gap behind an emitter) would leak out from there. There it
-    // gathers at its sample point, or, across a thin gap with that point over the shooter's
-    // surface, nothing here: the solver adds the gap's light (receive_patch.frag, near_side).
-    float near_side = in_near_field(position.xyz, side) ? side : 0.0;
-    int split = near_side > 0.0 ? 1 : 1 << decode_level(texelFetch(u_level, texel, 0).r);
+    int level_split = 1 << decode_level(texelFetch(u_level, texel, 0).r);
     // A texel whose surface bends within it gathers at two normals, its mean normal turned
     // each way along the bend by acos(spread), so that their mean is the covered surface's
     // mean normal (texel_maps.glsl decode_bend): at its sample's normal it got the light of
@@ -43,9 +43,8 @@ void main() {
     // (its shooter's quad a plane across the curve), which the surface does not. A flat
     // texel gathers at its normal.
     float spread = stored_normal.z;
-    int normals = spread < 1.0 && near_side == 0.0 ? 2 : 1;
     vec3 mean_normal = normal, turn = vec3(0.0);
-    if (normals == 2) {   // decoded only where used: every texel runs this every shot
+    if (spread < 1.0) {   // decoded only where used: every texel runs this every shot
         vec3 bend_axis;
         decode_bend(normal, stored_normal.w, mean_normal, bend_axis);
         turn = sqrt(max(1.0 - spread * spread, 0.0)) * bend_axis;
@@ -53,18 +52,32 @@ void main() {
     vec3 tangent = tangent_of(normal);
     vec3 bitangent = cross(normal, tangent);
     vec3 irradiance = vec3(0.0);
-    // One loop and one call site: a second inlined copy of irradiance_at() cost llvmpipe
-    // as much again per fragment, even where no texel took its branch.
-    for (int k = 0; k < split * split * normals; ++k) {
-        int cell = k / normals;
-        vec2 offset = (vec2(cell % split, cell / split) + 0.5) / float(split) - 0.5;
-        vec3 gathering_normal = normals == 1 ? normal
-                              : spread * mean_normal + (k % 2 == 0 ? turn : -turn);
-        irradiance += irradiance_at(position.xyz + side * (offset.x * tangent
-                                                           + offset.y * bitangent),
-                                    gathering_normal, near_side);
+    for (int shooter = 0; shooter < shooter_count(); ++shooter) {
+        if (!select_shooter(shooter)) continue;
+        // A subdivided texel gathers at split x split points spread over a square of its
+        // area around its sample point (the part of the texel square its surface covers). Not
+        // next to the shooter: a texel there re-shoots from its sample point, so light
+        // gathered over the rest of its square (say in a gap behind an emitter) would leak
+        // out from there. There it gathers at its sample point, or, across a thin gap with
+        // that point over the shooter's surface, nothing here: the solver adds the gap's
+        // light (receive_patch.frag, near_side).
+        float near_side = in_near_field(position.xyz, side) ? side : 0.0;
+        int split = near_side > 0.0 ? 1 : level_split;
+        int normals = spread < 1.0 && near_side == 0.0 ? 2 : 1;
+        vec3 gathered = vec3(0.0);
+        // One loop and one call site: a second inlined copy of irradiance_at() cost llvmpipe
+        // as much again per fragment, even where no texel took its branch.
+        for (int k = 0; k < split * split * normals; ++k) {
+            int cell = k / normals;
+            vec2 offset = (vec2(cell % split, cell / split) + 0.5) / float(split) - 0.5;
+            vec3 gathering_normal = normals == 1 ? normal
+                                  : spread * mean_normal + (k % 2 == 0 ? turn : -turn);
+            gathered += irradiance_at(position.xyz + side * (offset.x * tangent
+                                                             + offset.y * bitangent),
+                                      gathering_normal, near_side);
+        }
+        irradiance += gathered / float(split * split * normals);
     }
-    irradiance /= float(split * split * normals);
     if (irradiance.r + irradiance.g + irradiance.b <= 0.0) discard;
     // The irradiance gained by this texel and the reflected radiance it must shoot later.
     out_irradiance = vec4(irradiance, 0.0);

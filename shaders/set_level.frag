@@ -16,7 +16,7 @@ layout(location = 0) out vec4 out_level;
 float visibility_of(ivec2 texel) {
     return visible_from_eye(texelFetch(u_position, texel, 0).xyz,
                             decode_normal(texelFetch(u_normal, texel, 0).xy),
-                            decode_surface(texelFetch(u_material, texel, 0).a));
+                            decode_surface(texelFetch(u_material, texel, 0).a), 0);
 }
 
 void main() {

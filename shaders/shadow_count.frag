@@ -25,7 +25,7 @@ void main() {
     if (dot(normal, to_eye) <= 0.0) discard;
     if (u_clip_below != 0 && dot(position.xyz - u_eye, u_frame[2]) <= 0.0) discard;
     bool hidden = visible_from_eye(position.xyz, normal,
-                                   decode_surface(texelFetch(u_material, texel, 0).a)) < 0.5;
+                                   decode_surface(texelFetch(u_material, texel, 0).a), 0) < 0.5;
     if (hidden != (u_count_hidden != 0)) discard;
     out_unused = vec4(0.0);
 }

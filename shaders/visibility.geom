@@ -10,6 +10,7 @@ layout(triangle_strip, max_vertices = 18) out;
 
 uniform int u_face_count;
 uniform int u_clip_below;
+uniform int u_first_layer;   // the shooter's map in a batch's (visibility.render)
 
 in vec3 v_world[];
 in float v_surface[];
@@ -42,7 +43,7 @@ void main() {
             g_surface = v_surface[0];
             gl_Position = clip[i];
             gl_ClipDistance[0] = u_clip_below != 0 ? local[i].z : 1.0;
-            gl_Layer = face;
+            gl_Layer = u_first_layer + face;
             EmitVertex();
         }
         EndPrimitive();

@@ -8,6 +8,7 @@ in float in_surface;
 
 uniform int u_face;
 uniform int u_clip_below;
+uniform int u_first_layer;   // the shooter's map in a batch's (visibility.render)
 
 out vec3 g_local;
 flat out float g_surface;
@@ -20,5 +21,5 @@ void main() {
     g_surface = in_surface;
     gl_Position = face_clip(local, u_face);
     gl_ClipDistance[0] = u_clip_below != 0 ? local.z : 1.0;
-    gl_Layer = u_face;
+    gl_Layer = u_first_layer + u_face;
 }

@@ -64,8 +64,9 @@ bool texel_sees(ivec3 texel, vec2 stored_texel, vec3 point, vec3 normal, float o
 }
 
 // How much of 'world' (a receiver with normal 'normal' on the surface numbered 'surface')
-// the eye sees: 1 when it is the nearest surface in its direction.
-float visible_from_eye(vec3 world, vec3 normal, float surface) {
+// the eye sees: 1 when it is the nearest surface in its direction. The eye's map starts at
+// layer 'first_layer' (a batch of shooters keeps one map each, one after another).
+float visible_from_eye(vec3 world, vec3 normal, float surface, int first_layer) {
     vec3 local = to_local(world);
     vec3 local_normal = transpose(u_frame) * normal;
     float own = view_distance(local);
@@ -114,7 +115,7 @@ float visible_from_eye(vec3 world, vec3 normal, float surface) {
     for (int k = -1; k < last_neighbour; ++k) {
         ivec2 offset = k < 0 ? ivec2(0) : ivec2(k % 3 - 1, k / 3 - 1);
         ivec3 n = ivec3(clamp(texel.xy + offset, ivec2(0), ivec2(last)), texel.z);
-        vec2 stored = texelFetch(u_visibility, n, 0).rg;
+        vec2 stored = texelFetch(u_visibility, ivec3(n.xy, first_layer + n.z), 0).rg;
         bool sees = texel_sees(n, stored, local, local_normal, own, own_surface, tolerance);
         if (k < 0) {
             if (sees) return 1.0;

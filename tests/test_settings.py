@@ -93,6 +93,7 @@ INTENDED = {   # name: (default, minimum, maximum)
     "subdivision": ("NONE", None, None), "subdivision_level": (2, 0, 3),
     "subdivision_shadow_min": (0.02, 0.0, 1.0), "subdivision_shadow_max": (0.98, 0.0, 1.0),
     "adaptive_shoot_level": (False, None, None), "shooters_per_selection": (8, 1, 64),
+    "batched_receivers": (True, None, None),
     "ambient": (True, None, None), "profile": (False, None, None),
 }
 

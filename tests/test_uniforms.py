@@ -76,8 +76,8 @@ def test_bakes_through_every_program_set_declared_uniforms_only(ctx, gl_clean, m
         set_on.setdefault(program.extra["name"], {}).setdefault(name, []).append(value)
         original(program, name, value)   # raises for an undeclared uniform
 
-    def program(self, *files, original=gpu.GLObjects.program):
-        made_program = original(self, *files)
+    def program(self, *files, original=gpu.GLObjects.program, **options):
+        made_program = original(self, *files, **options)
         made.add(made_program.extra["name"])
         return made_program
 
@@ -98,7 +98,8 @@ def test_bakes_through_every_program_set_declared_uniforms_only(ctx, gl_clean, m
                     solver.release()
     assert made == set(set_on)   # every program had uniforms set
     patch = set_on["receiver_boxes.vert + receive_patch.frag"]
-    assert any(tuple(extent) != NO_SURFACE for extent in patch["u_surface_extent"])
+    assert any(tuple(extent) != NO_SURFACE for extents in patch["u_surface_extents"]
+               for extent in extents)
     light = set_on["receiver_boxes.vert + receive_light.frag"]
     assert set(light["u_light_kind"]) == {0, 1, 2}
     count = set_on["raster.vert + raster.geom + shadow_count.frag"]

@@ -24,7 +24,7 @@ class Snapshots:
         self._next = 1
 
     def after_step(self, solver):
-        """Call after each shot: keeps the lightmaps when the shot count reaches the next of
+        """Call after each step: keeps the lightmaps when the shot count reaches the next of
         1, 2, 4, ... (or the finer schedule)."""
         if solver.shots >= self._next and not solver.finished:
             self.take(solver)
