@@ -98,12 +98,33 @@ def lightmap_tangent(texels, positions, n):
     spans = [texels[:, axis].min() < texels[:, axis].max() for axis in (0, 1)]
     if not any(spans):
         return tangents_of(n[None])[0]
-    design = np.column_stack([np.ones(len(texels)), texels[:, [i for i in (0, 1) if spans[i]]]])
-    slopes = np.linalg.lstsq(design, positions, rcond=None)[0][1:]
-    direction = slopes[0] if spans[0] else np.cross(slopes[0], n)
+    # Least squares on the centred coordinates: the normal equations, solved by hand (one
+    # or two unknowns per world axis).
+    along = texels[:, [i for i in (0, 1) if spans[i]]].astype(np.float64)
+    along -= along.mean(axis=0)
+    moments = along.T @ along
+    covariances = along.T @ (positions - positions.mean(axis=0))
+    if len(moments) == 1:
+        slope = covariances[0] / moments[0, 0]
+    else:
+        (a, b), (_, d) = moments
+        slope = (d * covariances[0] - b * covariances[1]) / (a * d - b * b)
+    direction = slope if spans[0] else vector_cross(slope, n)
     direction = direction - n * (direction @ n)
-    length = np.linalg.norm(direction)
-    return direction / length if length > 1e-12 else tangents_of(n[None])[0]
+    size = vector_length(direction)
+    return direction / size if size > 1e-12 else tangents_of(n[None])[0]
+
+
+def vector_cross(a, b):
+    """np.cross of two 3-vectors, without its per-call cost (shooters are built one by one,
+    thousands per bake)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+
+
+def vector_length(v):
+    """The length of a 3-vector (np.linalg.norm without its per-call cost)."""
+    return math.sqrt(float(v @ v))
 
 
 def rectangle_around(members, strongest, width, height):
@@ -221,10 +242,10 @@ def chart_quad(texels, points, chart, area, normal):
     corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) - anchor_texel
     world = anchor + corners @ basis.T
     middle = world.mean(axis=0)
-    spanned = np.linalg.norm(np.cross(world[1] - world[0], world[3] - world[0]))
-    scale = math.sqrt(area / max(spanned, 1e-30))
+    spanning = vector_cross(world[1] - world[0], world[3] - world[0])
+    scale = math.sqrt(area / max(vector_length(spanning), 1e-30))
     quad = list(middle + (world - middle) * scale)
-    if np.cross(world[1] - world[0], world[3] - world[0]) @ normal < 0.0:
+    if spanning @ normal < 0.0:
         quad.reverse()
     return quad
 
@@ -232,9 +253,10 @@ def chart_quad(texels, points, chart, area, normal):
 def quad_in_plane(quad, point, normal, area):
     """A planar quad projected onto the plane through ``point`` with unit ``normal``, scaled
     back to ``area`` about its middle (a projection onto a tilted plane shrinks it)."""
-    projected = np.array([corner - normal * ((corner - point) @ normal) for corner in quad])
+    corners = np.asarray(quad)
+    projected = corners - normal * ((corners - point) @ normal)[:, None]
     middle = projected.mean(axis=0)
-    spanned = np.linalg.norm(np.cross(projected[1] - projected[0], projected[3] - projected[0]))
+    spanned = vector_length(vector_cross(projected[1] - projected[0], projected[3] - projected[0]))
     scale = math.sqrt(area / max(spanned, 1e-30))
     return list(middle + (projected - middle) * scale)
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .geometry import (chart_quad, lightmap_tangent, quad_in_plane, rectangle_around,
-                       region_charts, shooter_quad)
+                       region_charts, shooter_quad, vector_cross, vector_length)
 from .state import Region, Shooter, decode_normals
 
 # A shooter takes the texels of its block whose unshot radiance is at least this share of the
@@ -132,7 +132,7 @@ def make_shooter(state, caches, region, maps, charts):
     total_area = float(weights.sum())
     centre = (position[members, :3] * weights).sum(axis=0) / total_area
     n = (normal[members] * weights).sum(axis=0)
-    n /= np.linalg.norm(n)
+    n /= vector_length(n)
     texels = np.stack([members % width, members // width], axis=1)
     # The shooter's plane through its front-most texel, not their centroid: the texels of a
     # curved sheet bulge past the plane through their centroid, where the sheet's back faces
@@ -140,7 +140,7 @@ def make_shooter(state, caches, region, maps, charts):
     centre = centre + n * (float(((position[members, :3] - centre) @ n).max())
                            + _bend_rise(texels, position[members, :3], normal[members]))
     t = lightmap_tangent(texels, position[members, :3], n)
-    b = np.cross(n, t)
+    b = vector_cross(n, t)
     taken = unshot[members].astype(np.float32)
     taken[:, 3] = 0.0   # the texel size stays
     labels, by_label = charts
@@ -178,6 +178,8 @@ def _bend_rise(texels, points, normals):
     """How far a sheet bending between neighbouring texels can rise past both sample points:
     half their distance times the sine of half the bend (the crest of two facets meeting
     halfway between them), where it bends away from their front (a concave bend sags)."""
+    if (normals == normals[0]).all():
+        return 0.0   # a flat sheet
     low = texels.min(axis=0)
     rows = np.full(tuple(np.ptp(texels, axis=0)[::-1] + 1), -1)
     rows[texels[:, 1] - low[1], texels[:, 0] - low[0]] = np.arange(len(texels))
