@@ -11,7 +11,9 @@ bpy module; one row per process, each run capped):
 The row is added to ``--json`` (a row of the same scene, level and density is replaced).
 Luxel: `compare.SnapshotBake`'s snapshots at every half doubling of the shots, its seconds
 the bake's own (export, materials, charting, preprocess, shots; the snapshots not counted),
-Settings.profile on (the GPU waited for after each phase, so the phases add up); stopped at
+Settings.profile on (the GPU waited for after each phase, so the phases add up; with
+``--unsynchronised`` off, as a user's bake runs: the curve is then the user's, the phases
+overlap); stopped at
 the threshold, the shot limit or after ``--luxel-seconds``. The reference is two Cycles bakes
 of ``--reference-samples`` with other seeds, averaged, its noise subtracted from every squared
 error (bench_equal_error.py); every shown copy counts (instances through stand-ins,
@@ -49,6 +51,8 @@ def main():
     parser.add_argument("--reference-samples", type=int, default=256, help="per reference bake")
     parser.add_argument("--cycles-seconds", type=float, default=600.0)
     parser.add_argument("--no-cycles", action="store_true")
+    parser.add_argument("--unsynchronised", action="store_true",
+                        help="Settings.profile off: the GPU not waited for after each phase")
     parser.add_argument("--json", type=Path, required=True)
     args = parser.parse_args()
 
@@ -64,9 +68,11 @@ def main():
         settings.texel_density = args.density
     settings.threshold, settings.max_shots = args.threshold, args.max_shots
 
-    luxel, row = luxel_bake(context, luxel_package, args.luxel_seconds)
+    luxel, row = luxel_bake(context, luxel_package, args.luxel_seconds,
+                            synchronised=not args.unsynchronised)
     row.update(scene=args.scene, level=args.level, density=settings.texel_density,
-               threshold=args.threshold, luxel_seconds_cap=args.luxel_seconds)
+               threshold=args.threshold, luxel_seconds_cap=args.luxel_seconds,
+               synchronised=not args.unsynchronised)
     print(json.dumps({key: value for key, value in row.items() if key != "phases"}), flush=True)
     save_row(args.json, row, luxel.device)     # kept should the comparison fail
     if not args.no_cycles:
@@ -75,13 +81,13 @@ def main():
     os._exit(0)     # bpy's teardown after a bake can crash on some versions
 
 
-def luxel_bake(context, luxel_package, seconds_limit):
-    """The bake with snapshots, timed per phase, stopped after ``seconds_limit``; returns
-    the SnapshotBake and the row's Luxel columns."""
+def luxel_bake(context, luxel_package, seconds_limit, *, synchronised):
+    """The bake with snapshots, timed per phase (``synchronised``: Settings.profile),
+    stopped after ``seconds_limit``; returns the SnapshotBake and the row's Luxel columns."""
     addon, snapshots = luxel_package.addon, luxel_package.native.evaluation.snapshots
     charting = timed_charting(luxel_package.native.solver)
     job = addon.bake.BakeJob(context)
-    job.settings = dataclasses.replace(job.settings, profile=True)
+    job.settings = dataclasses.replace(job.settings, profile=synchronised)
     stages = {}
     job.stages = tuple(timed_stage(stage, stages) for stage in job.stages)
     try:
