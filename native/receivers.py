@@ -211,7 +211,6 @@ def update(state, visibility, kind, shooters=None):
     """The receivers gather the pass's light (program ``kind``: "patch", the batch whose
     uniforms set_patch_uniforms set, or "light"): the tiles ``shooters`` gives bits of
     (receiving_shooters), or all of them from the one light."""
-    program = state.programs[kind]
     tiles = state.receiver_tiles
     if shooters is None:
         shooters = np.ones(len(tiles.page), dtype=np.int64)
