@@ -26,8 +26,10 @@ SHOWN_SQUARE = 0.5
 # A receiver faces a shooter across a gap when their normals' cosine is under minus this
 # (receive_patch.frag: across_thin_gap()).
 FACING_COSINE = 0.99
-# Receivers are looked for this many of the region's largest texels around it (near_thin_gap).
+# Receivers are looked for this many of the region's largest texels around it (near_thin_gap),
+# at most this many triangle-texel pairs at once.
 NEAR_REACH = 3.0
+PAIRS_AT_ONCE = 1 << 22
 # Two albedos of 1 would keep the light for ever: the gap keeps at most this share of it at
 # each bounce (at most 1,000 times the light).
 MAX_KEPT = 0.999
@@ -296,12 +298,20 @@ def near_thin_gap(state, gaps, region, position, normal, texel_size):
         gap, reach = 2.0 * THIN_GAP * largest, NEAR_REACH * largest
         receivers = gaps.receivers
         near = receivers.within(points.min(axis=0) - reach, points.max(axis=0) + reach)
-        facing = receivers.normals[near] @ normals.T < -FACING_COSINE              # (near, points)
-        # How far in front of each texel each plane lies: a sheet's own back face, at 0,
-        # gets nothing from its front.
-        heights = receivers.normals[near] @ points.T - receivers.offsets[near, None]
-        thin = gaps.near_region[region] = bool(
-            (facing & (heights > state.bounds.epsilon) & (heights < gap)).any())
+        thin = False
+        # A coarse block among a finely subdivided mesh has hundreds of texels and
+        # hundreds of thousands of triangles near it: a piece of them at a time.
+        step = max(1, PAIRS_AT_ONCE // len(points))
+        for start in range(0, len(near), step):
+            part = near[start:start + step]
+            facing = receivers.normals[part] @ normals.T < -FACING_COSINE         # (part, points)
+            # How far in front of each texel each plane lies: a sheet's own back face, at 0,
+            # gets nothing from its front.
+            heights = receivers.normals[part] @ points.T - receivers.offsets[part, None]
+            thin = bool((facing & (heights > state.bounds.epsilon) & (heights < gap)).any())
+            if thin:
+                break
+        gaps.near_region[region] = thin
     return thin
 
 
