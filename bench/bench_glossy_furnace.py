@@ -45,15 +45,11 @@ MATERIALS = {
 }
 
 
-def furnace(bpy):
+def furnace(bpy, samples):
     scene = bpy.data.scenes.new("Furnace")
-    scene.render.engine = 'CYCLES'
-    cycles = scene.cycles
-    cycles.device = 'CPU'
-    cycles.use_adaptive_sampling = False
-    cycles.use_denoising = False
-    cycles.max_bounces = 1
-    cycles.blur_glossy = 0.0
+    # The reference's settings: no clamping, no Filter Glossy; one bounce, for a convex
+    # hemisphere sees only the sky.
+    runner.luxel().addon.reference.configure_cycles(scene, samples, bounces=1, seed=0)
     scene.render.bake.view_from = 'ACTIVE_CAMERA'
     world = scene.world = bpy.data.worlds.new("Sky")
     if world.node_tree is None:         # Blender before 5.0 makes it on use_nodes
@@ -111,8 +107,7 @@ def main():
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     bpy = runner.start_blender()
-    scene, hemisphere, image = furnace(bpy)
-    scene.cycles.samples = args.samples
+    scene, hemisphere, image = furnace(bpy, args.samples)
     side = (np.arange(TEXELS) + 0.5) / TEXELS * 2.0 - 1.0
     radius = np.hypot(side[None, :], side[:, None])
     cosine = np.sqrt(np.clip(1.0 - radius ** 2, 0.0, 1.0))

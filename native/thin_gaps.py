@@ -301,7 +301,7 @@ def near_thin_gap(state, gaps, region, position, normal, texel_size):
         thin = False
         # A coarse block among a finely subdivided mesh has hundreds of texels and
         # hundreds of thousands of triangles near it: a piece of them at a time.
-        step = max(1, PAIRS_AT_ONCE // len(points))
+        step = max(1, PAIRS_AT_ONCE // max(len(points), 1))
         for start in range(0, len(near), step):
             part = near[start:start + step]
             facing = receivers.normals[part] @ normals.T < -FACING_COSINE         # (part, points)
