@@ -5,10 +5,12 @@ then finds cached) and has Cycles bake every mesh copy's materials into it: DIFF
 the COLOR pass (the albedo a Cycles DIFFUSE bake multiplies its light by, whatever the node
 tree: textures through any coordinates, procedurals, vertex colours, attributes, node groups,
 mixes, the layers above a Principled BSDF's diffuse base), GLOSSY with only the COLOR pass
-(what the glossy layers reflect: specular, coat, metal) and EMIT (colour x strength). Each
+(what the glossy layers reflect: specular, coat, metal), EMIT (colour x strength) and, where
+the glossy colour is not black, ROUGHNESS (how wide the glossy layers' lobe is). Each
 page's images go to the solver as textures through the atlas UVs: the albedo is what the
 lightmap shows (a Cycles DIFFUSE bake's colour), the albedo plus the glossy colour what the
-surface reflects into the room, as if diffuse (see README, "Materials"). Materials whose nodes
+surface reflects into the room, its glossy share in a lobe as wide as the roughness at the
+triangle's centre (native/lobes.py; see README, "Materials"). Materials whose nodes
 cannot vary over the surface bake at one sample per texel, the others at MATERIAL_SAMPLES
 jittered over the texel (Cycles' pixel filter averages what lies inside a texel).
 
@@ -95,7 +97,7 @@ def evaluate_materials(depsgraph, export, settings):
     bake = _Bake()
     try:
         copies = _make_copies(depsgraph, export, atlas, row_of, bake)
-        albedo, glossy, emission = _bake_pages(copies, atlas, bake)
+        albedo, glossy, emission, roughness = _bake_pages(copies, atlas, bake)
     finally:
         bake.release()
     _check_range(export, atlas, albedo, emission)
@@ -108,11 +110,17 @@ def evaluate_materials(depsgraph, export, settings):
     uv = np.zeros((count, 3, 2))
     uv[charted] = corner_uv[row_of[charted]]
     emits = charted & (scene.emission.max(axis=1) > 0.0)
+    centre = uv.mean(axis=1) * np.array([atlas.width, atlas.height])
+    x, y = (np.clip(centre[:, axis].astype(np.int64), 0, size - 1)
+            for axis, size in ((0, atlas.width), (1, atlas.height)))
+    rough = np.ones(count)
+    rough[charted] = np.asarray(roughness)[page[charted], y[charted], x[charted]]
     tinted = np.where(charted[:, None], TEXTURE_TINT, scene.albedo)
     export.scene = replace(
         scene, albedo=tinted, albedo_uv=uv, albedo_texture_index=page, albedo_textures=albedo,
         reflectance=tinted, reflectance_texture_index=page, reflectance_textures=reflectance,
-        emission_texture_index=np.where(emits, page, -1), emission_textures=emission)
+        emission_texture_index=np.where(emits, page, -1), emission_textures=emission,
+        roughness=np.clip(rough, 0.0, 1.0))
     export.emission_of_material = _mean_emission(export, atlas, row_of, emission)
     return atlas
 
@@ -266,9 +274,9 @@ def _baking_material(original, bake):
 
 # ------------------------------------------------------------------------- the bakes
 def _bake_pages(copies, atlas, bake):
-    """Per page, the albedo, glossy colour and emission (H, W, 3), row 0 at v = 0: each
-    object's box pasted where Cycles baked a texel (its centre on a triangle), the gutters
-    around the charts filled."""
+    """Per page, the albedo, glossy colour and emission (H, W, 3) and the roughness (H, W; 1
+    where nothing is glossy), row 0 at v = 0: each object's box pasted where Cycles baked a
+    texel (its centre on a triangle), the gutters around the charts filled."""
     settings = bake.scene
     settings.render.engine = 'CYCLES'
     cycles = settings.cycles
@@ -278,8 +286,12 @@ def _bake_pages(copies, atlas, bake):
     cycles.seed = 0
     view_layer = settings.view_layers[0]
     passes = []
-    for kind, chosen in (('DIFFUSE', copies), ('GLOSSY', copies),
-                         ('EMIT', [copy for copy in copies if copy.emits])):
+    for kind in ('DIFFUSE', 'GLOSSY', 'EMIT', 'ROUGHNESS'):
+        chosen = copies
+        if kind == 'EMIT':
+            chosen = [copy for copy in copies if copy.emits]
+        elif kind == 'ROUGHNESS':
+            chosen = [copy for copy in copies if _is_glossy(copy, passes[1])]
         pages = np.zeros((atlas.page_count, atlas.height, atlas.width, 4), dtype=np.float32)
         images = {}
         for copy in chosen:
@@ -317,10 +329,19 @@ def _bake_pages(copies, atlas, bake):
             box = pages[page, y:y + height, x:x + width]
             box[baked] = np.concatenate([pixels[baked][:, :3],
                                          np.ones((int(baked.sum()), 1), np.float32)], axis=1)
+        if kind == 'ROUGHNESS':   # one value; 1 where nothing is glossy
+            passes.append(np.where(pages[..., 3] > 0.0, pages[..., 0], 1.0))
+            continue
         for page in pages:
             fill_gutter(page, GUTTER_TEXELS)
         passes.append([page[..., :3] for page in pages])
     return passes
+
+
+def _is_glossy(copy, glossy):
+    """Whether any texel of ``copy``'s box has a glossy colour."""
+    (x, y), (width, height) = copy.low, (int(n) for n in copy.size)
+    return bool(glossy[copy.page][y:y + height, x:x + width].max(initial=0.0) > 0.0)
 
 
 def _check_range(export, atlas, albedo, emission):

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 
+from . import lobes
 from .atlas import charted_triangles
 from .errors import GPUMemoryError
 
@@ -15,6 +16,9 @@ from .errors import GPUMemoryError
 # (4 B) and the albedo the lightmaps show (RGBA16, 8 B, read to the CPU) live only until the
 # irradiance is made.
 BYTES_PER_TEXEL = 3 * 16 + 8 + 8 + 1
+# And where the scene's glossy layers leave in lobes (lobes.needed), the directions the unshot
+# light came in from (RGBA32F: sums as the unshot radiance).
+LOBE_BYTES_PER_TEXEL = 16
 # The selection pyramid's first level holds a texel (RGBA32F) per block; the levels above
 # it add a third.
 PYRAMID_TEXEL_BYTES = 16
@@ -31,14 +35,20 @@ DENSITY_STEPS = 30
 SURFACE_SHARE_GUESS = 0.5
 
 
-def memory_needed(atlas, settings, map_size, batch=1):
-    """Bytes of the maps of ``atlas``'s pages, its selection pyramid and the visibility map
-    of a receiver pass of ``batch`` shooters."""
+def bytes_per_texel(scene):
+    """The maps' bytes per texel for ``scene``."""
+    return BYTES_PER_TEXEL + (LOBE_BYTES_PER_TEXEL if lobes.needed(scene) else 0)
+
+
+def memory_needed(atlas, settings, map_size, batch=1, *, texel_bytes=BYTES_PER_TEXEL):
+    """Bytes of the maps of ``atlas``'s pages (``texel_bytes`` a texel: bytes_per_texel),
+    its selection pyramid and the visibility map of a receiver pass of ``batch``
+    shooters."""
     texels = atlas.width * atlas.height * atlas.page_count
     block = 1 << settings.shoot_level
     pyramid = texels / (block * block) * PYRAMID_TEXEL_BYTES * 4 / 3
     visibility = map_size ** 2 * visibility_layers(settings, batch) * VISIBILITY_BYTES_PER_TEXEL
-    return int(texels * BYTES_PER_TEXEL + pyramid + visibility)
+    return int(texels * texel_bytes + pyramid + visibility)
 
 
 def visibility_layers(settings, batch):
@@ -47,7 +57,7 @@ def visibility_layers(settings, batch):
     return 6 * batch if settings.projection == "HEMICUBE" else 2
 
 
-def receiver_batch(atlas, settings, map_size):
+def receiver_batch(atlas, settings, map_size, *, texel_bytes=BYTES_PER_TEXEL):
     """How many shooters one receiver pass gathers: those of a selection, at most
     MOST_BATCHED_SHOOTERS, as many as the memory limit leaves room for their visibility maps.
     One with Settings.batched_receivers off, with a hemisphere projection (the batch's maps
@@ -57,14 +67,16 @@ def receiver_batch(atlas, settings, map_size):
             or settings.subdivision == "ADAPTIVE"):
         return 1
     batch = min(settings.shooters_per_selection, MOST_BATCHED_SHOOTERS)
-    while batch > 1 and memory_needed(atlas, settings, map_size, batch) > settings.memory_limit:
+    while batch > 1 and memory_needed(atlas, settings, map_size, batch,
+                                      texel_bytes=texel_bytes) > settings.memory_limit:
         batch -= 1
     return batch
 
 
-def fits(atlas, settings, map_size, max_texture_size):
+def fits(atlas, settings, map_size, max_texture_size, *, texel_bytes=BYTES_PER_TEXEL):
     """Whether the atlas fits, with a receiver pass of one shooter at least."""
-    return (memory_needed(atlas, settings, map_size) <= settings.memory_limit
+    return (memory_needed(atlas, settings, map_size, texel_bytes=texel_bytes)
+            <= settings.memory_limit
             and max(atlas.width, atlas.height) <= max_texture_size)
 
 
@@ -78,12 +90,13 @@ def check_surface_fits(scene, settings, fits_at):
     charted = charted_triangles(scene)
     scales = np.asarray(scene.object_texel_scale)[scene.object_index[charted]]
     surface = float(np.sum(scene.triangle_area[charted] * scales ** 2))  # m^2 at density 1
-    needed = surface * density ** 2 * BYTES_PER_TEXEL
+    texel_bytes = bytes_per_texel(scene)
+    needed = surface * density ** 2 * texel_bytes
     limit = int(settings.memory_limit)
     if needed <= limit:
         return
     fits = density_that_fits(
-        math.sqrt(SURFACE_SHARE_GUESS * limit / (surface * BYTES_PER_TEXEL)), fits_at)
+        math.sqrt(SURFACE_SHARE_GUESS * limit / (surface * texel_bytes)), fits_at)
     raise GPUMemoryError(
         f"the lightmaps need at least {needed / 2**20:,.0f} MiB of GPU memory at "
         f"{density:.4g} texels per metre but {limit / 2**20:.1f} MiB are allowed: "

@@ -13,7 +13,8 @@ from .gpu import buffer_content, render_state, set_uniform
 from .state import MAP_UNITS, Bounds, Energy, Page, decode_normals, read_map
 
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
-                 ("in_albedo", 3), ("in_reflectance", 3), ("in_emission", 3), ("in_receive", 1))
+                 ("in_albedo", 3), ("in_reflectance", 3), ("in_emission", 3), ("in_receive", 1),
+                 ("in_roughness", 1))
 # The textures a triangle's material reads: (Scene's index and list, sampler unit, switch).
 MATERIAL_TEXTURES = (("albedo_texture_index", "albedo_textures", 0, "u_use_texture"),
                      ("emission_texture_index", "emission_textures", 1,
@@ -106,22 +107,26 @@ def create_gpu_state(state):
     gl = state.gl
     state.per_face_visibility = draws_per_face(state.ctx, state.settings)
     state.programs = create_programs(gl, state.settings, per_face=state.per_face_visibility,
-                                     receiver_batch=state.receiver_batch)
+                                     receiver_batch=state.receiver_batch,
+                                     glossy_lobes=state.glossy_lobes)
     state.fullscreen = {name: gl.vertex_array(state.programs[name], [])
                         for name in ("block", "argmax")}
     set_constant_uniforms(state)
     state.material_textures = {name: material_textures(gl, getattr(state.scene, name))
                                for _, name, _, _ in MATERIAL_TEXTURES}
     size = (state.packed.width, state.packed.height)
-    state.pages = [allocate_page(gl, 1 << state.patch_level, size)
+    state.pages = [allocate_page(gl, 1 << state.patch_level, size,
+                                 glossy_lobes=state.glossy_lobes)
                    for _ in range(state.packed.page_count)]
 
 
-def create_programs(gl, settings, *, per_face, receiver_batch):
+def create_programs(gl, settings, *, per_face, receiver_batch, glossy_lobes):
     """The programs by name; ``per_face``: the cube's faces drawn one by one
     (draws_per_face), not routed by a geometry shader; ``receiver_batch``: the shooters a
     receiver pass gathers (a batch of one compiles to a pass without the loop over them,
-    which on llvmpipe cost a shot's pass about a third more)."""
+    which on llvmpipe cost a shot's pass about a third more); ``glossy_lobes``: the
+    receivers keep incoming directions and patches shoot lobes (lobes.py)."""
+    lobes = {"GLOSSY_LOBES": int(glossy_lobes)}
     programs = {
         "attributes": gl.program("raster.vert", "raster_attributes.frag", "raster.geom"),
         "area": gl.program("raster.vert", "raster_area.frag", "raster.geom"),
@@ -138,8 +143,8 @@ def create_programs(gl, settings, *, per_face, receiver_batch):
         "nonlinear": gl.program("visibility.vert", "visibility_nonlinear.frag",
                                 "visibility_nonlinear.geom"),
         "patch": gl.program("receiver_boxes.vert", "receive_patch.frag",
-                            defines={"MOST_SHOOTERS": receiver_batch}),
-        "light": gl.program("receiver_boxes.vert", "receive_light.frag"),
+                            defines={"MOST_SHOOTERS": receiver_batch, **lobes}),
+        "light": gl.program("receiver_boxes.vert", "receive_light.frag", defines=lobes),
         "take": gl.program("take_unshot.vert", "take_unshot.frag"),
     }
     if settings.subdivision != "NONE":
@@ -209,9 +214,10 @@ def material_textures(gl, images):
     return textures
 
 
-def allocate_page(gl, block, size):
+def allocate_page(gl, block, size, *, glossy_lobes):
     """A page's maps but the irradiance, which rasterize makes once its depth is gone; the
-    arg-max pyramid starts at blocks of ``block`` texels (the patches)."""
+    arg-max pyramid starts at blocks of ``block`` texels (the patches); the incoming
+    directions with ``glossy_lobes``."""
     textures = {
         "position": gl.texture(size, 4),            # xyz, area
         "normal": gl.texture(size, 4, "nu2"),       # octahedral (texel_maps.glsl), spread
@@ -219,10 +225,14 @@ def allocate_page(gl, block, size):
         "unshot": gl.texture(size, 4),              # radiance, texel size
         "level": gl.texture(size, 1, "nu1"),        # subdivision level
     }
+    if glossy_lobes:
+        textures["incoming"] = gl.texture(size, 4)  # where the unshot light came from
     page = Page(
         blocks=gl.framebuffer([textures[n] for n in ("position", "normal", "unshot",
-                                                    "material")]),
+                                                    "material", "incoming")
+                               if n in textures]),
         unshot_only=gl.framebuffer([textures["unshot"]]),
+        incoming_only=gl.framebuffer([textures["incoming"]]) if glossy_lobes else None,
         area_only=gl.framebuffer([textures["position"]]),
         level_only=gl.framebuffer([textures["level"]]),
         textures=textures)
@@ -259,6 +269,7 @@ def rasterize(state):
         atlas.texels, positions, normals, tex_uv, per_corner(scene.albedo[tris]),
         per_corner(scene.reflected()[tris]), per_corner(scene.emission[tris]),
         per_corner((scene.receive * state.surfaces)[tris, None].astype(float)),
+        per_corner(scene.roughness[tris, None]),
     ], axis=2).astype("f4")
     # Draw in runs of (page, material textures).
     order = np.lexsort((*texture_index.T[::-1], atlas.page))
@@ -306,17 +317,20 @@ def rasterize(state):
     # The irradiance takes the depth's memory: the peak stays at BYTES_PER_TEXEL.
     for page in pages:
         irradiance = page.textures["irradiance"] = gl.texture((atlas.width, atlas.height), 4)
-        page.receivers = gl.framebuffer([irradiance, page.textures["unshot"]])
+        page.receivers = gl.framebuffer([irradiance, page.textures["unshot"]] + (
+            [page.textures["incoming"]] if state.glossy_lobes else []))
     measure_surface(state, vaos, keys[starts, 0], starts, ends)
     for page in pages:
         with render_state(ctx, framebuffer=page.receivers,   # the unshot holds emission
-                          color_mask=[(True,) * 4, (False,) * 4]):
+                          color_mask=[(True,) * 4, (False,) * 4, (True,) * 4][
+                              :len(page.receivers.color_attachments)]):
             page.receivers.clear(0.0, 0.0, 0.0, 0.0)
     return RasterVertices(vbo, tris[order], atlas.page[order])
 
 
 def _keep_albedo(page, albedo):
-    page.albedo = read_map(albedo)[..., :3]
+    kept = read_map(albedo)
+    page.albedo, page.roughness = kept[..., :3], kept[..., 3]
 
 
 def measure_surface(state, vaos, run_pages, starts, ends):

@@ -127,6 +127,9 @@ def take_unshot(state, shooter):
     read, so energy they received since stays)."""
     blend_points(state, shooter.page.unshot_only, shooter.texels, shooter.unshot,
                  moderngl.FUNC_REVERSE_SUBTRACT)
+    if shooter.incoming is not None:
+        blend_points(state, shooter.page.incoming_only, shooter.texels, shooter.incoming,
+                     moderngl.FUNC_REVERSE_SUBTRACT)
     emitting, power = shooter.page.emission_left
     if len(emitting):
         flat = shooter.texels[:, 1].astype(np.int64) * state.packed.width + shooter.texels[:, 0]
@@ -145,6 +148,9 @@ def set_patch_uniforms(state, shooters, views):
                                     for corner in shooter.quad])
     _set_array(program, "u_centres", [tuple(shooter.centre) for shooter in shooters])
     _set_array(program, "u_radiances", [tuple(shooter.radiance) for shooter in shooters])
+    lobe_uniforms = [shooter.lobe.uniforms() for shooter in shooters]
+    _set_array(program, "u_lobes", [lobe for lobe, _ in lobe_uniforms])
+    _set_array(program, "u_lobe_shares", [share for _, share in lobe_uniforms])
     # An empty rectangle: no texel is across a thin gap from this shooter.
     _set_array(program, "u_surface_extents", [
         NO_SURFACE if shooter.extent is None else tuple(shooter.extent) for shooter in shooters])

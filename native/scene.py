@@ -117,6 +117,10 @@ class Scene:
     sampled through albedo_uv too and multiplied by the triangle's emission, which then bounds
     its scale (emitted_power() counts the triangle's emission, untextured). The add-on gives
     reflectance_texture_index (T,) into reflectance_textures likewise, times the reflectance.
+    roughness (T,) in [0, 1], 1 by default: the roughness of the layers that reflect what the
+    reflectance holds beyond the albedo (a Principled BSDF's specular, coat, metal). That
+    share leaves in a lobe about the mirror direction of the light that came in, the wider
+    the rougher; at 1 it leaves as if diffuse (lobes.py).
     The add-on gives the three per lightmap page: Cycles' evaluation of the materials at each
     texel.
     """
@@ -147,6 +151,7 @@ class Scene:
     reflectance: np.ndarray = None
     reflectance_texture_index: np.ndarray = None
     reflectance_textures: list = field(default_factory=list)
+    roughness: np.ndarray = None
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -175,6 +180,7 @@ class Scene:
         if self.reflectance is not None:
             self.reflectance = per_triangle(self.reflectance, 0.0, np.float64, 3)
         self.emission = per_triangle(self.emission, 0.0, np.float64, 3)
+        self.roughness = per_triangle(self.roughness, 1.0, np.float64)
         self.emission_two_sided = per_triangle(self.emission_two_sided, True, bool)
         self.receive = per_triangle(self.receive, True, bool)
         self.occlude = per_triangle(self.occlude, True, bool)
@@ -249,6 +255,10 @@ class Scene:
                 triangle = int(np.argmax(bad))
                 self._fail(f"{name} {values[triangle].tolist()} is outside [0, 1); a surface "
                            "cannot reflect all light: lower the base colour below 1", triangle)
+        bad = ~((self.roughness >= 0.0) & (self.roughness <= 1.0))
+        if bad.any():
+            self._fail(f"roughness {float(self.roughness[np.argmax(bad)])} is outside [0, 1]; "
+                       "set the material's roughness between 0 and 1", int(np.argmax(bad)))
         bad = (self.emission < 0.0).any(axis=1)
         if bad.any():
             self._fail("emission is negative; use a colour and strength of 0 or more",
@@ -406,7 +416,8 @@ class Scene:
                 self.reflectance, self.reflectance[backs]),
             reflectance_texture_index=extend(self.reflectance_texture_index,
                                              self.reflectance_texture_index[backs]),
-            reflectance_textures=self.reflectance_textures, lights=self.lights,
+            reflectance_textures=self.reflectance_textures,
+            roughness=extend(self.roughness, self.roughness[backs]), lights=self.lights,
             occlude=extend(self.occlude, np.zeros(len(backs), bool)), sky=self.sky,
             polygon=extend(self.polygon, np.full(len(backs), -1)))   # no UV map shows copies
         copy.back_of = extend(np.full(count, -1), backs)  # the original of each copy

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import lobes
 from .geometry import (chart_quad, lightmap_tangent, quad_in_plane, rectangle_around,
                        region_charts, shooter_quad, vector_cross, vector_length)
 from .state import Region, Shooter, decode_normals
@@ -24,8 +25,9 @@ COPLANAR_DEPTH = 0.25
 FLAT_CHART_SINE = 0.1
 # A plane crosses a shooting block when texels lie this share of a texel beyond it each way.
 CROSSING_MARGIN = 1e-3
-# What a shooter reads of its block: (attachment of state.Page.blocks, components).
-BLOCK_MAPS = ((0, 4), (1, 2), (2, 4), (3, 4))
+# What a shooter reads of its block: (attachment of state.Page.blocks, components); the last,
+# the incoming directions, where the scene needs lobes (BakeState.glossy_lobes).
+BLOCK_MAPS = ((0, 4), (1, 2), (2, 4), (3, 4), (4, 4))
 
 
 @dataclass
@@ -35,11 +37,13 @@ class BlockMaps:
     normal: np.ndarray      # (N, 3)
     unshot: np.ndarray      # (N, 4): radiance, texel size
     surface: np.ndarray     # (N,) surface numbers
-    albedo: np.ndarray      # (N, 3)
+    reflectance: np.ndarray  # (N, 3)
+    incoming: np.ndarray    # (N, 4): where the unshot light came from (lobes.py)
 
     def rows(self, rows):
-        return BlockMaps(*(values[rows] for values in (self.position, self.normal, self.unshot,
-                                                        self.surface, self.albedo)))
+        return BlockMaps(*(values[rows] for values in (
+            self.position, self.normal, self.unshot, self.surface, self.reflectance,
+            self.incoming)))
 
 
 @dataclass
@@ -61,11 +65,12 @@ def staging_bytes(settings, block):
 def read_blocks(state, caches, regions):
     """Per Region its BlockMaps, queued into one staging buffer and read back once."""
     offset, views = 0, []
+    maps = len(BLOCK_MAPS) - (0 if state.glossy_lobes else 1)
     for region in regions:
         page = state.pages[region.page]
         width, height = region.width_on(state.packed), region.height_on(state.packed)
         count = width * height
-        for attachment, components in BLOCK_MAPS:
+        for attachment, components in BLOCK_MAPS[:maps]:
             page.blocks.read_into(caches.staging, viewport=(region.x0, region.y0, width, height),
                                   components=components, attachment=attachment, dtype="f4",
                                   write_offset=offset)
@@ -74,9 +79,13 @@ def read_blocks(state, caches, regions):
     data = np.frombuffer(caches.staging.read(size=offset), dtype="f4").astype(np.float64)
     rows = [data[start:start + components * count].reshape(count, components)
             for start, count, components in views]
+    per_region = [rows[i::maps] for i in range(maps)]
+    if not state.glossy_lobes:
+        per_region.append([np.zeros((len(position), 4)) for position in per_region[0]])
     return [BlockMaps(position, decode_normals(normal), unshot,
-                      np.floor(material[:, 3] * 65535.0 + 0.5), material[:, :3])  # decode_surface()
-            for position, normal, unshot, material in zip(*(rows[i::4] for i in range(4)))]
+                      np.floor(material[:, 3] * 65535.0 + 0.5), material[:, :3],  # decode_surface()
+                      incoming)
+            for position, normal, unshot, material, incoming in zip(*per_region)]
 
 
 def parts(state, region, maps, finer):
@@ -114,7 +123,8 @@ def make_shooter(state, caches, region, maps, charts):
     texels of other charts, which keep their energy). None when it holds no unshot power."""
     page = state.pages[region.page]
     width = region.width_on(state.packed)
-    position, normal, unshot, albedo = maps.position, maps.normal, maps.unshot, maps.albedo
+    position, normal, unshot, reflectance = (maps.position, maps.normal, maps.unshot,
+                                             maps.reflectance)
     area, radiance, texel_size = position[:, 3], unshot[:, :3], unshot[:, 3]
     power = radiance.mean(axis=1) * area
     strongest = int(np.argmax(power))
@@ -156,15 +166,41 @@ def make_shooter(state, caches, region, maps, charts):
         quad = shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
                             total_area, centre)
     surface = int(maps.surface[strongest])
+    shot = radiance[members] * weights
     return Shooter(
         page=page, texels=texels + origin,
         centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
-        radiance=(radiance[members] * weights).sum(axis=0) / total_area, unshot=taken,
+        radiance=shot.sum(axis=0) / total_area, unshot=taken,
+        incoming=maps.incoming[members].astype(np.float32) if state.glossy_lobes else None,
+        lobe=(lobes.make(n, maps.incoming[members] * weights, shot,
+                         shot * _glossy_share(state, page, texels + origin, reflectance[members]),
+                         _mean_roughness(page, texels + origin, weights))
+              if state.glossy_lobes else lobes.diffuse()),
         # Texels that do not receive (surface 0: an emitter's back) take no light, so a thin
         # gap's light does not bounce off them.
-        albedo=((albedo[members] * weights).sum(axis=0) / total_area if surface > 0
+        albedo=((reflectance[members] * weights).sum(axis=0) / total_area if surface > 0
                 else np.zeros(3)),
         surface=surface)
+
+
+def _glossy_share(state, page, texels, reflectance):
+    """(N, 3) per texel the share of its unshot radiance its glossy layers reflect: its
+    reflectance beyond the diffuse albedo, over the reflectance; none where emission not yet
+    shot is in it (emitters shoot as if diffuse)."""
+    beyond = reflectance - page.albedo[texels[:, 1], texels[:, 0]]
+    share = np.divide(beyond, reflectance, out=np.zeros_like(beyond),
+                      where=reflectance > 0.0).clip(0.0, 1.0)
+    emitting, power = page.emission_left
+    if len(emitting):
+        flat = texels[:, 1].astype(np.int64) * state.packed.width + texels[:, 0]
+        where = np.searchsorted(emitting, flat).clip(0, len(emitting) - 1)
+        share[(emitting[where] == flat) & (power[where].max(axis=1) > 0.0)] = 0.0
+    return share
+
+
+def _mean_roughness(page, texels, weights):
+    return float((page.roughness[texels[:, 1], texels[:, 0]] * weights[:, 0]).sum()
+                 / weights.sum())
 
 
 def _lies_along(chart, normal):

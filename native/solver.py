@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from . import (memory, postprocess, preprocess, receivers, selection, shooters, subdivision,
+from . import (lobes, memory, postprocess, preprocess, receivers, selection, shooters, subdivision,
                thin_gaps, visibility)
 from .atlas import build_atlas, tight_packing
 from .gpu import GLObjects, create_context, using
@@ -95,7 +95,8 @@ def _fits_at(scene, settings, density, max_texture_size):
     packed = tight_packing(_chart(scene, settings, density), 1 << settings.shoot_level)[0]
     map_size = preprocess.visibility_map_size(
         dataclasses.replace(settings, texel_density=density), scene)
-    return memory.fits(packed, settings, map_size, max_texture_size)
+    return memory.fits(packed, settings, map_size, max_texture_size,
+                       texel_bytes=memory.bytes_per_texel(scene))
 
 
 class Solver:
@@ -298,7 +299,9 @@ class Solver:
             ctx=self.ctx, gl=gl, scene=scene, settings=settings,
             bounds=preprocess.bounds_of(scene),
             map_size=preprocess.visibility_map_size(settings, scene),
-            surfaces=surfaces, emitting_surfaces=emitting_surfaces)
+            surfaces=surfaces, emitting_surfaces=emitting_surfaces,
+            glossy_lobes=lobes.needed(scene))
+        texel_bytes = memory.bytes_per_texel(scene)
         memory.check_surface_fits(scene, settings, self._fits_at)
         started = time.perf_counter()
         self.atlas = state.atlas = _chart(scene, settings, settings.texel_density)
@@ -307,9 +310,10 @@ class Solver:
         state.patch_level = selection.patch_level(
             settings, float(scene.triangle_area[state.packed.triangles].sum()))
         self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
-        state.receiver_batch = memory.receiver_batch(state.packed, settings, state.map_size)
+        state.receiver_batch = memory.receiver_batch(state.packed, settings, state.map_size,
+                                                     texel_bytes=texel_bytes)
         self._memory_bytes = memory.memory_needed(state.packed, settings, state.map_size,
-                                                  state.receiver_batch)
+                                                  state.receiver_batch, texel_bytes=texel_bytes)
         memory.check_memory(state.packed, settings, self._memory_bytes,
                             self._fits(state.packed, state.map_size), self._fits_at)
         yield self._preprocessing(0)
@@ -363,8 +367,8 @@ class Solver:
         self._state.receiver_tiles = receivers.create_tiles(self._state)
 
     def _fits(self, atlas, map_size):
-        return memory.fits(atlas, self.settings, map_size,
-                           self.ctx.info["GL_MAX_TEXTURE_SIZE"])
+        return memory.fits(atlas, self.settings, map_size, self.ctx.info["GL_MAX_TEXTURE_SIZE"],
+                           texel_bytes=memory.bytes_per_texel(self.scene))
 
     def _fits_at(self, density):
         return _fits_at(self.scene, self.settings, density,

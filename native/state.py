@@ -22,9 +22,11 @@ MAP_UNITS = {"position": 1, "normal": 2, "material": 3, "level": 4}
 class Page:
     """One page of the packed atlas on the GPU: its maps (textures, by name) and the
     framebuffers that write them."""
-    blocks: object          # framebuffer: position, normal, unshot, material (read back
-                            # per shooter)
+    blocks: object          # framebuffer: position, normal, unshot, material, incoming
+                            # (read back per shooter)
     unshot_only: object     # framebuffer: unshot
+    incoming_only: object   # framebuffer: incoming (receiver_common.glsl out_incoming), or
+                            # None where the scene needs no lobes
     area_only: object       # framebuffer: position (area in .w)
     level_only: object      # framebuffer: subdivision level
     textures: dict
@@ -40,6 +42,7 @@ class Page:
     # (H, W, 3) float32: the diffuse albedo the lightmap shows (the material map holds what
     # the texel reflects into the room, more where glossy layers reflect too)
     albedo: np.ndarray = None
+    roughness: np.ndarray = None   # (H, W) float32: its glossy layers' (Scene.roughness)
 
     def use_maps(self, *names):
         """Bind the named maps to their units (MAP_UNITS)."""
@@ -74,6 +77,7 @@ class BakeState:
     programs: dict = None
     per_face_visibility: bool = False   # the cube drawn face by face (preprocess.draws_per_face)
     receiver_batch: int = 1     # shooters per receiver pass (memory.receiver_batch)
+    glossy_lobes: bool = False  # the pages keep incoming directions (lobes.needed)
     fullscreen: dict = None     # vertex arrays drawing one screen-filling triangle
     material_textures: dict = None   # Scene's texture lists, by name, on the GPU
     pages: list = None
@@ -165,6 +169,9 @@ class Shooter:
                                 # front (about frame's n: receive_patch.frag)
     radiance: np.ndarray        # leaving its front (every shooter is one-sided)
     unshot: np.ndarray          # (N, 4) float32: what this shot takes from each texel
+    incoming: np.ndarray        # (N, 4) float32: and from its incoming directions (None
+                                # without lobes)
+    lobe: object                # lobes.Lobe: where its glossy share goes
     albedo: np.ndarray          # its texels' mean albedo: what a thin gap's far side bounces
     surface: int                # the surface number of its strongest texel (0: it does
                                 # not receive)

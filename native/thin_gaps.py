@@ -523,5 +523,6 @@ def _add_irradiance(state, page, texels, irradiance):
     values = np.zeros((len(texels), 4), dtype=np.float32)
     values[:, :3] = irradiance
     with render_state(state.ctx, framebuffer=page.receivers,
-                      color_mask=[(True,) * 4, (False,) * 4]):
+                      color_mask=[(True,) * 4] + [(False,) * 4] * (
+                          len(page.receivers.color_attachments) - 1)):
         blend_points(state, page.receivers, texels, values, moderngl.FUNC_ADD)

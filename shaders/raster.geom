@@ -17,6 +17,7 @@ in VertexData {
     vec3 reflectance;
     vec3 emission;
     float receive;
+    float roughness;
 } v[];
 
 flat out vec2 g_texel[3];
@@ -27,6 +28,7 @@ flat out vec3 g_albedo;
 flat out vec3 g_reflectance;
 flat out vec3 g_emission;
 flat out float g_receive;
+flat out float g_roughness;
 flat out vec3 g_face_normal;
 flat out float g_texel_size;      // world length of one texel edge
 flat out float g_area_per_texel;  // world area of one texel square on this triangle
@@ -58,6 +60,7 @@ void main() {
     g_reflectance = v[0].reflectance;
     g_emission = v[0].emission;
     g_receive = v[0].receive;
+    g_roughness = v[0].roughness;
     vec2 corners[4] = vec2[4](lo, vec2(hi.x, lo.y), vec2(lo.x, hi.y), hi);
     for (int i = 0; i < 4; ++i) {
         gl_Position = vec4(corners[i] / u_atlas_size * 2.0 - 1.0, 0.0, 1.0);

@@ -8,6 +8,7 @@ in vec3 in_albedo;      // diffuse albedo the lightmap shows
 in vec3 in_reflectance; // what the surface reflects into the room
 in vec3 in_emission;   // radiance from the front face
 in float in_receive;   // its surface's number when the triangle receives, else 0
+in float in_roughness; // of the glossy layers (Scene.roughness)
 
 out VertexData {
     vec2 texel;
@@ -18,6 +19,7 @@ out VertexData {
     vec3 reflectance;
     vec3 emission;
     float receive;
+    float roughness;
 } v;
 
 void main() {
@@ -29,5 +31,6 @@ void main() {
     v.reflectance = in_reflectance;
     v.emission = in_emission;
     v.receive = in_receive;
+    v.roughness = in_roughness;
     gl_Position = vec4(0.0);
 }

@@ -11,6 +11,7 @@ flat in vec3 g_albedo;
 flat in vec3 g_reflectance;
 flat in vec3 g_emission;
 flat in float g_receive;
+flat in float g_roughness;
 flat in vec3 g_face_normal;
 flat in float g_texel_size;
 flat in float g_area_per_texel;
@@ -29,7 +30,8 @@ layout(location = 2) out vec4 out_material;  // reflectance (what the texel refl
                                              // room), a = the receiving surface's number
 layout(location = 3) out vec4 out_unshot;    // emitted radiance (the first unshot), a = world
                                              // length of a texel edge
-layout(location = 4) out vec4 out_albedo;    // the diffuse albedo the lightmap shows
+layout(location = 4) out vec4 out_albedo;    // the diffuse albedo the lightmap shows, a = the
+                                             // glossy layers' roughness
 
 #include "texel_maps.glsl"
 #include "texel_clip.glsl"
@@ -66,6 +68,6 @@ void main() {
     out_position = vec4(position, 0.0);
     out_normal = vec4(encode_normal(normal), 1.0, 0.0);
     out_material = vec4(reflectance, encode_surface(g_receive));
-    out_albedo = vec4(albedo, 1.0);
+    out_albedo = vec4(albedo, g_roughness);
     out_unshot = vec4(emission, g_texel_size);
 }

@@ -16,6 +16,10 @@ bool in_near_field(vec3 point, float texel_size) {
     return false;  // point lights and suns have no extent
 }
 
+vec3 travel_direction(vec3 point) {
+    return u_light_kind == 2 ? u_frame[2] : normalize(point - u_eye);
+}
+
 int shooter_count() { return 1; }   // one light per pass
 
 bool select_shooter(int index) { return true; }

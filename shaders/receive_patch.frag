@@ -3,7 +3,8 @@
 // one pass: every receiving texel visible from a shooter gains irradiance pi * L * F, with F
 // the exact point-to-polygon form factor (Lambert's formula) of the shooter's quad clipped to
 // the receiver's horizon: bounded however close they are. Each shooter's visibility map is
-// the six layers from 6 x its index.
+// the six layers from 6 x its index. The share of a shooter's light its glossy layers reflect
+// leaves in a lobe about a direction (lobes.py), the rest as from a diffuse surface.
 #define VIEW_PER_SHOOTER
 #include "projection.glsl"
 #include "visibility_test.glsl"
@@ -21,9 +22,16 @@ uniform vec3 u_radiances[MOST_SHOOTERS];  // unshot radiance leaving the front f
 uniform vec4 u_surface_extents[MOST_SHOOTERS];  // u min, u max, v min, v max of the shooter's
                                                 // surface along its frame's tangent and
                                                 // bitangent, from its centre
+uniform vec4 u_lobes[MOST_SHOOTERS];      // the glossy lobe's axis (xyz) and exponent (w)
+uniform vec4 u_lobe_shares[MOST_SHOOTERS];  // the glossy share of the radiance (rgb) and the
+                                            // lobe's scale (a): its radiance over the mean
 uniform vec3 u_eyes[MOST_SHOOTERS];       // where each shooter's map was drawn from
 uniform mat3 u_frames[MOST_SHOOTERS];     // and its frame (columns t, b, n)
 uniform float u_thin_gap;      // a gap under this share of a texel is thin
+
+// Where lobe_factor() looks from: this share of the way from the shooter's centre to its
+// quad's corners.
+const float GAUSS_POINT = 0.57735027;
 
 // The current shooter (select_shooter): its index and values.
 int shooter;
@@ -31,6 +39,8 @@ vec3 shot_quad[4];
 vec3 shot_centre;
 vec3 shot_radiance;
 vec4 shot_extent;
+vec4 shot_lobe;
+vec4 shot_lobe_share;
 
 // A batch of one is known here: the pass then compiles without the loop over shooters.
 int shooter_count() { return MOST_SHOOTERS == 1 ? 1 : u_shooter_count; }
@@ -47,6 +57,8 @@ bool select_shooter(int index) {
     shot_centre = u_centres[index];
     shot_radiance = u_radiances[index];
     shot_extent = u_surface_extents[index];
+    shot_lobe = u_lobes[index];
+    shot_lobe_share = u_lobe_shares[index];
     u_eye = u_eyes[index];
     u_frame = u_frames[index];
     return true;
@@ -81,6 +93,26 @@ float polygon_form_factor(vec3 p, vec3 n) {
     return clamp(-sum / (2.0 * PI), 0.0, 1.0);
 }
 
+vec3 travel_direction(vec3 point) { return normalize(point - shot_centre); }
+
+// What the shooter sends towards 'point' over what a diffuse shooter of its radiance would:
+// the lobe's mean over the directions from four points of its quad (the 2 x 2 Gauss points
+// of a square), not its centre alone: a sharp lobe seen from a large shooter's centre lit
+// a spot where the quad's mirror image lights an area.
+vec3 lobe_factor(vec3 point) {
+#if GLOSSY_LOBES
+    float lobe = 0.0;
+    for (int i = 0; i < 4; ++i) {
+        vec3 from = shot_centre + (shot_quad[i] - shot_centre) * GAUSS_POINT;
+        float along = dot(normalize(point - from), shot_lobe.xyz);
+        if (along > 0.0) lobe += exp2(shot_lobe.w * log2(along));
+    }
+    return 1.0 + shot_lobe_share.rgb * (0.25 * shot_lobe_share.a * lobe - 1.0);
+#else
+    return vec3(1.0);
+#endif
+}
+
 bool in_near_field(vec3 point, float texel_size) {
     float reach = 0.5 * length(shot_quad[2] - shot_quad[0]) + 2.0 * texel_size;
     return distance(point, shot_centre) < reach;
@@ -110,5 +142,6 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     if (near_side > 0.0 && across_thin_gap(from_shooter, height, normal, near_side)) return vec3(0.0);
     float visible = visible_from_eye(point, normal, receiver_surface, 6 * shooter);
     if (visible <= 0.0) return vec3(0.0);
-    return PI * shot_radiance * polygon_form_factor(point, normal) * visible;
+    return PI * shot_radiance * lobe_factor(point) * polygon_form_factor(point, normal)
+        * visible;
 }

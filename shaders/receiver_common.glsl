@@ -8,6 +8,11 @@ uniform sampler2D u_level;     // subdivision level of the texel
 
 layout(location = 0) out vec4 out_irradiance;  // added to the accumulated irradiance
 layout(location = 1) out vec4 out_unshot;      // added to the unshot radiance
+#if GLOSSY_LOBES   // where the scene's glossy layers leave in lobes (lobes.py)
+layout(location = 2) out vec4 out_incoming;    // added to the unshot light's directions: the
+                                               // directions it travelled in (xyz) weighted by
+                                               // the irradiance each brought, and its sum (w)
+#endif
 
 const float PI = 3.14159265358979;
 
@@ -16,6 +21,8 @@ float receiver_surface;   // the number of the texel's surface, for visible_from
 // The irradiance at 'point'; 'near_side' > 0: the point is the sample point of a texel of that
 // side in the shooter's near field.
 vec3 irradiance_at(vec3 point, vec3 normal, float near_side);
+// The direction the current shooter's light travels in to reach 'point'.
+vec3 travel_direction(vec3 point);
 // Whether the texel lies so close to the shooter that it gathers at its sample point only.
 bool in_near_field(vec3 point, float texel_size);
 // How many shooters the pass gathers from.
@@ -52,6 +59,7 @@ void main() {
     vec3 tangent = tangent_of(normal);
     vec3 bitangent = cross(normal, tangent);
     vec3 irradiance = vec3(0.0);
+    vec4 incoming = vec4(0.0);
     for (int shooter = 0; shooter < shooter_count(); ++shooter) {
         if (!select_shooter(shooter)) continue;
         // A subdivided texel gathers at split x split points spread over a square of its
@@ -76,10 +84,19 @@ void main() {
                                                              + offset.y * bitangent),
                                       gathering_normal, near_side);
         }
-        irradiance += gathered / float(split * split * normals);
+        gathered /= float(split * split * normals);
+        irradiance += gathered;
+#if GLOSSY_LOBES
+        float brought = (gathered.r + gathered.g + gathered.b) / 3.0;
+        // Not where nothing came: the direction from the shooter's own centre is NaN.
+        if (brought > 0.0) incoming += brought * vec4(travel_direction(position.xyz), 1.0);
+#endif
     }
     if (irradiance.r + irradiance.g + irradiance.b <= 0.0) discard;
     // The irradiance gained by this texel and the reflected radiance it must shoot later.
     out_irradiance = vec4(irradiance, 0.0);
     out_unshot = vec4(material.rgb * irradiance / PI, 0.0);
+#if GLOSSY_LOBES
+    out_incoming = incoming;
+#endif
 }

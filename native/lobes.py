@@ -1,0 +1,134 @@
+"""Glossy lobes: where a shooter's glossy layers send its light. A texel reflects its
+reflectance's share of what it receives (the material map); of that, what lies beyond the
+diffuse albedo (a Principled BSDF's specular, coat and metal layers, Scene.reflectance) leaves
+about the mirror direction of the light that came in, not evenly: light from a lamp above
+that grazes a wall leaves it down towards the floor. The receivers keep, per texel, the
+directions their unshot light came from, weighted by the irradiance each brought
+(receiver_common.glsl out_incoming). A shooter reads their mean as light from one direction d
+mixed with light from all round (an even radiance: its directions' mean, so weighted, is two
+thirds of the normal, inwards): the share beta from d that gives that mean. The glossy share of the light from all round leaves as
+if diffuse (a rough mirror sends on an even radiance evenly), that of d in a lobe
+
+    L(w) = scale * max(w . r, 0) ^ exponent      (in units of the radiance it shoots)
+
+about d's mirror direction r, scaled so that it sends the power a diffuse shooter of that
+radiance sends. The exponent follows the roughness, as a Phong lobe about the mirror direction
+matches GGX of alpha = roughness^2 (a lobe twice as wide as the half-vector's); the glossy
+share of a rough surface (roughness 1) leaves as if diffuse.
+"""
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+# Samples of the lower hemisphere (uniform in solid angle), for what of a lobe tilted
+# towards the horizon falls below it.
+HORIZON_SAMPLES = 2048
+# The sharpest lobe (roughness about 0.33): receive_patch.frag samples a shooter's quad at four
+# points, and sharper lobes from them light four spots where the quad's mirror image lights an
+# area (tests/test_glossy_lobes.py).
+MOST_EXPONENT = 30.0
+# Under this exponent a lobe is as good as diffuse: the glossy share leaves as if diffuse.
+LEAST_EXPONENT = 0.5
+
+
+def needed(scene):
+    """Whether any surface of ``scene`` has glossy layers that are not rough through: its
+    reflectance beyond its albedo, per triangle or in the textures, and roughness under 1.
+    Scenes without keep no incoming directions (memory.bytes_per_texel)."""
+    smooth = scene.roughness < 1.0
+    if not smooth.any():
+        return False
+    if (scene.reflected()[smooth] > scene.albedo[smooth]).any():
+        return True
+    for index in np.unique(scene.reflectance_texture_index[smooth]):
+        if index < 0:
+            continue
+        reflectance = np.asarray(scene.reflectance_textures[index])[..., :3]
+        albedo_index = scene.albedo_texture_index[smooth][
+            scene.reflectance_texture_index[smooth] == index]
+        albedo = (np.asarray(scene.albedo_textures[albedo_index[0]])[..., :3]
+                  if albedo_index[0] >= 0 else 1.0)
+        if (reflectance > albedo).any():
+            return True
+    return False
+
+
+def _lower_hemisphere(count):
+    index = np.arange(count) + 0.5
+    z = -index / count                      # uniform in solid angle over z in (-1, 0)
+    ring = np.sqrt(1.0 - z * z)
+    azimuth = math.pi * (3.0 - math.sqrt(5.0)) * index
+    return np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), z], axis=1)
+
+
+_LOWER = _lower_hemisphere(HORIZON_SAMPLES)
+
+
+@dataclass
+class Lobe:
+    """A shooter's glossy lobe, as receive_patch.frag reads it."""
+    axis: np.ndarray        # (3,) the mirror direction, world space
+    exponent: float
+    share: np.ndarray       # (3,) the glossy share of the radiance it shoots
+    scale: float            # the lobe's radiance along its axis over the radiance shot
+
+    def uniforms(self):
+        """u_lobes' and u_lobe_shares' values."""
+        return (*self.axis, self.exponent), (*self.share, self.scale)
+
+
+def diffuse():
+    """The lobe of a shooter without glossy light: everything leaves as if diffuse."""
+    return Lobe(axis=np.array([0.0, 0.0, 1.0]), exponent=0.0, share=np.zeros(3), scale=1.0)
+
+
+def roughness_exponent(roughness):
+    """The Phong exponent about the mirror direction of GGX of alpha = roughness^2: a quarter
+    of the half-vector's 2 / alpha^2 - 2 (the mirror direction turns twice as far)."""
+    alpha2 = max(roughness, 1e-4) ** 4
+    return min(max(2.0 / alpha2 - 2.0, 0.0) / 4.0, MOST_EXPONENT)
+
+
+def from_one_direction(mean, normal):
+    """The share beta of light from one direction d, mixed with light from all round, whose
+    directions' mean is ``mean``: beta d - (1 - beta) 2/3 normal = mean. Returns (beta, d)."""
+    along, squared = float(mean @ normal), float(mean @ mean)
+    # With c = (1 - beta) 2/3: |mean + c normal| = 1 - 3c/2, the smaller root in [0, 2/3].
+    b = 3.0 + 2.0 * along
+    c = (b - math.sqrt(max(b * b - 5.0 * (1.0 - squared), 0.0))) / 2.5
+    beta = 1.0 - 1.5 * min(max(c, 0.0), 2.0 / 3.0)
+    if beta <= 0.0:
+        return 0.0, -normal
+    return beta, (mean + c * normal) / max(float(np.linalg.norm(mean + c * normal)), 1e-30)
+
+
+def make(normal, incoming, radiance, glossy, roughness):
+    """The lobe of a shooter of ``normal`` from its texels' rows: ``incoming`` (N, 4) the
+    directions their unshot light came from, times their area (xyz, w: the weights' sum),
+    ``radiance`` (N, 3) and ``glossy`` (N, 3) their unshot radiance and its glossy part, each
+    times their area, and ``roughness`` their area-weighted mean roughness."""
+    total = radiance.sum(axis=0)
+    share = np.divide(glossy.sum(axis=0), total, out=np.zeros(3), where=total > 0.0)
+    summed = incoming.sum(axis=0)
+    if share.max() <= 0.0 or summed[3] <= 0.0:
+        return diffuse()
+    beta, travel = from_one_direction(summed[:3] / summed[3], normal)
+    down = float(travel @ normal)
+    exponent = roughness_exponent(roughness)
+    if exponent < LEAST_EXPONENT or down >= 0.0 or beta <= 0.0:
+        return diffuse()
+    axis = travel - 2.0 * down * normal
+    return Lobe(axis=axis, exponent=exponent, share=share * beta,
+                scale=math.pi / lobe_integral(float(axis @ normal), exponent))
+
+
+def lobe_integral(height, exponent):
+    """The integral over the hemisphere above a surface of max(w . r, 0)^exponent times the
+    cosine to its normal, for an axis r at ``height`` (r . n) above it: over the whole sphere
+    (by symmetry about r) less what lies below the horizon, where the cosine is negative."""
+    whole = height * 2.0 * math.pi / (exponent + 2.0)
+    axis = np.array([math.sqrt(max(1.0 - height * height, 0.0)), 0.0, height])
+    along = np.maximum(_LOWER @ axis, 0.0)
+    below = float((along ** exponent * _LOWER[:, 2]).mean()) * 2.0 * math.pi
+    return whole - below

@@ -1,0 +1,129 @@
+"""Glossy lobes (native/lobes.py): where the light that glossy layers reflect goes.
+
+Truths: a near-mirror floor lights a wall as the lamp's mirror image below the floor does,
+seen through the floor (reflectance times the image's irradiance, cos / d^2); the lobe's
+normalization against a Monte Carlo integral; a matte scene keeps no incoming directions."""
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from native import PointLight, Settings, Solver
+from native import lobes
+from native.samples import SceneBuilder
+
+LAMP = np.array([-1.5, 0.0, 1.0])
+POWER = 400.0
+GLOSS = 0.5                 # what the floor reflects, all of it in its glossy layer
+WALL_ALBEDO = 0.01          # the wall's light bounces back to the floor a hundredth of it
+WALL_X = 1.5
+
+
+def mirror_floor_scene(roughness):
+    """A 2 x 2 m floor (no diffuse part; GLOSS reflected by a glossy layer of ``roughness``)
+    with a lamp above one side, and a wall 1.5 m beyond the floor's middle on the other."""
+    scene = (SceneBuilder()
+             .quad("floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], (0.0,) * 3,
+                   subdivisions=4)
+             .quad("wall", [(WALL_X, -1.5, 0), (WALL_X, -1.5, 3), (WALL_X, 1.5, 3),
+                            (WALL_X, 1.5, 0)], (WALL_ALBEDO,) * 3, subdivisions=4)
+             .build([PointLight(position=tuple(LAMP), power=POWER)]))
+    floor = np.asarray(scene.object_names)[scene.object_index] == "floor"
+    reflectance = np.where(floor[:, None], GLOSS, scene.albedo)
+    return dataclasses.replace(scene, reflectance=reflectance,
+                               roughness=np.where(floor, roughness, 1.0))
+
+
+def image_irradiance(points):
+    """The irradiance the lamp's mirror image (below the floor) gives wall points whose ray
+    to it crosses the floor, times GLOSS; None where the ray misses the floor."""
+    image = LAMP * np.array([1.0, 1.0, -1.0])
+    d = points - image
+    t = -image[2] / d[:, 2]                          # where the ray meets z = 0
+    crossing = image + t[:, None] * d
+    through = (np.abs(crossing[:, 0]) <= 1.0) & (np.abs(crossing[:, 1]) <= 1.0)
+    distance2 = (d * d).sum(axis=1)
+    cosine = d[:, 0] / np.sqrt(distance2)            # the wall faces -x
+    intensity = POWER / (4.0 * math.pi)
+    return np.where(through, GLOSS * intensity * cosine / distance2, np.nan)
+
+
+def direct_irradiance(points):
+    d = points - LAMP
+    distance2 = (d * d).sum(axis=1)
+    return POWER / (4.0 * math.pi) * (d[:, 0] / np.sqrt(distance2)) / distance2
+
+
+def wall_reflected_light(ctx, roughness):
+    """Per wall texel well inside the floor's mirror image: the irradiance Luxel's wall got
+    from the floor (its lightmap less the lamp's direct light), and the image's truth."""
+    solver = Solver(mirror_floor_scene(roughness),
+                    Settings(texel_density=12, threshold=0.002, ambient=False), ctx=ctx)
+    try:
+        solver.run()
+        image, samples = solver.result()[0], solver.texel_samples()[0]
+        assert ctx.error == "GL_NO_ERROR"
+    finally:
+        solver.release()
+    position = samples["position"][samples["occupied"]]
+    irradiance = image[samples["occupied"]][:, 1] * math.pi / WALL_ALBEDO
+    on_wall = np.abs(position[:, 0] - WALL_X) < 1e-4
+    points = position[on_wall]
+    truth = image_irradiance(points)
+    # Away from the image's rim, which the lobe blurs: rays crossing the floor's middle.
+    image_point = LAMP * np.array([1.0, 1.0, -1.0])
+    crossing = image_point + (-image_point[2] / (points - image_point)[:, 2])[:, None] * (
+        points - image_point)
+    inside = (np.abs(crossing[:, 0]) < 0.7) & (np.abs(crossing[:, 1]) < 0.7)
+    reflected = irradiance[on_wall] - direct_irradiance(points)
+    return reflected[inside], truth[inside]
+
+
+def test_a_near_mirror_floor_lights_the_wall_as_the_lamps_mirror_image(ctx, gl_clean):
+    """Roughness 0.15 (the sharpest lobe, lobes.MOST_EXPONENT): the wall's light from the
+    floor within 8 % of the image's in the mean, and within 15 % on the middle 80 % of its
+    texels. As if diffuse (roughness 1) the floor sent it everywhere: the same texels got
+    under a third of it."""
+    got, truth = wall_reflected_light(ctx, 0.15)
+    assert len(got) >= 100
+    assert np.mean(got) / np.mean(truth) == pytest.approx(1.0, abs=0.08)
+    low, high = np.percentile(got / truth, [10, 90])
+    assert 0.85 < low and high < 1.15
+    diffuse, _ = wall_reflected_light(ctx, 1.0)
+    assert np.mean(diffuse) / np.mean(truth) < 0.35
+
+
+@pytest.mark.parametrize("height", [1.0, 0.6, 0.2])
+@pytest.mark.parametrize("exponent", [1.0, 7.5, 60.0])
+def test_lobe_sends_the_power_of_a_diffuse_shooter(height, exponent):
+    """scale times the lobe, integrated against the cosine over the hemisphere, is pi (what a
+    diffuse shooter of unit radiance sends per unit area): against a Monte Carlo integral."""
+    normal = np.array([0.0, 0.0, 1.0])
+    axis = np.array([math.sqrt(1.0 - height * height), 0.0, height])
+    rng = np.random.default_rng(1)
+    directions = rng.normal(size=(400_000, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    directions[:, 2] = np.abs(directions[:, 2])
+    values = np.maximum(directions @ axis, 0.0) ** exponent * (directions @ normal)
+    integral = 2.0 * math.pi * values.mean()
+    assert lobes.lobe_integral(height, exponent) == pytest.approx(integral, rel=0.02)
+
+
+def test_light_from_all_round_leaves_as_if_diffuse_and_from_one_direction_in_a_lobe():
+    """The mixture's share from one direction: none for an even radiance (the irradiance-
+    weighted mean direction two thirds of the normal, inwards), all for one direction."""
+    normal = np.array([0.0, 0.0, 1.0])
+    beta, _ = lobes.from_one_direction(-2.0 / 3.0 * normal, normal)
+    assert beta == pytest.approx(0.0, abs=1e-6)
+    one = np.array([0.6, 0.0, -0.8])
+    beta, direction = lobes.from_one_direction(0.3 * one - 0.7 * 2.0 / 3.0 * normal, normal)
+    assert beta == pytest.approx(0.3, abs=1e-6)
+    np.testing.assert_allclose(direction, one, atol=1e-6)
+
+
+def test_only_scenes_with_smooth_glossy_layers_keep_incoming_directions():
+    assert lobes.needed(mirror_floor_scene(0.5))
+    assert not lobes.needed(mirror_floor_scene(1.0))
+    matte = mirror_floor_scene(0.5)
+    assert not lobes.needed(dataclasses.replace(matte, reflectance=None))
