@@ -120,7 +120,7 @@ def evaluate_materials(depsgraph, export, settings):
         scene, albedo=tinted, albedo_uv=uv, albedo_texture_index=page, albedo_textures=albedo,
         reflectance=tinted, reflectance_texture_index=page, reflectance_textures=reflectance,
         emission_texture_index=np.where(emits, page, -1), emission_textures=emission,
-        roughness=np.clip(rough, 0.0, 1.0))
+        roughness=np.clip(rough, 0.0, 1.0), glossy_fresnel=True)
     export.emission_of_material = _mean_emission(export, atlas, row_of, emission)
     return atlas
 

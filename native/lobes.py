@@ -28,15 +28,27 @@ HORIZON_SAMPLES = 2048
 # points, and sharper lobes from them light four spots where the quad's mirror image lights an
 # area (tests/test_glossy_lobes.py).
 MOST_EXPONENT = 30.0
+# rise(): (1 - cos)^2.5 times this has a cosine-weighted mean of 1 over the hemisphere; it
+# gives Cycles' default layer 1.33, 2.56 and 4.04 times its normal-incidence albedo at cos 0.65,
+# 0.35 and 0.15 (measured 1.36, 2.54, 3.64).
+RISE_SHAPE = 7.875
+# white_sky_albedo(): how fast roughness damps the rise (fitted at roughness 0.2, 0.5, 1).
+RISE_DAMPING = 2.2
 # Under this exponent a lobe is as good as diffuse: the glossy share leaves as if diffuse.
 LEAST_EXPONENT = 0.5
 
 
 def needed(scene):
-    """Whether any surface of ``scene`` has glossy layers that are not rough through: its
-    reflectance beyond its albedo, per triangle or in the textures, and roughness under 1.
-    Scenes without keep no incoming directions (memory.bytes_per_texel)."""
-    smooth = scene.roughness < 1.0
+    """Whether any surface of ``scene`` has glossy layers that are not rough through
+    (roughness under 1). Scenes without keep no incoming directions
+    (memory.bytes_per_texel)."""
+    return has_glossy(scene, scene.roughness < 1.0)
+
+
+def has_glossy(scene, triangles=None):
+    """Whether any of ``triangles`` (a mask; all by default) reflects more than its albedo,
+    per triangle or in the textures: glossy layers."""
+    smooth = np.ones(len(scene.triangles), bool) if triangles is None else triangles
     if not smooth.any():
         return False
     if (scene.reflected()[smooth] > scene.albedo[smooth]).any():
@@ -103,24 +115,67 @@ def from_one_direction(mean, normal):
     return beta, (mean + c * normal) / max(float(np.linalg.norm(mean + c * normal)), 1e-30)
 
 
-def make(normal, incoming, radiance, glossy, roughness):
-    """The lobe of a shooter of ``normal`` from its texels' rows: ``incoming`` (N, 4) the
-    directions their unshot light came from, times their area (xyz, w: the weights' sum),
-    ``radiance`` (N, 3) and ``glossy`` (N, 3) their unshot radiance and its glossy part, each
-    times their area, and ``roughness`` their area-weighted mean roughness."""
-    total = radiance.sum(axis=0)
-    share = np.divide(glossy.sum(axis=0), total, out=np.zeros(3), where=total > 0.0)
+@dataclass
+class Reflection:
+    """What a shooter's texels send: their radiance times their area, summed (RGB; more or
+    less than they took where their glossy layers' albedo rises towards grazing light), and
+    the lobe of its glossy share."""
+    power: np.ndarray
+    lobe: Lobe
+
+
+def reflect(normal, incoming, taken, reflectance, glossy, roughness, *, fresnel):
+    """The Reflection of a shooter of ``normal`` from its texels' rows: ``incoming`` (N, 4)
+    the directions their unshot light came from, times their area (xyz, w: the weights'
+    sum); ``taken`` (N, 3) their unshot radiance times their area; ``reflectance`` (N, 3) what
+    they reflect, ``glossy`` (N, 3) its glossy layers' part at normal incidence (0 where the
+    unshot light is emission); ``roughness`` (N,). With ``fresnel`` (Scene.glossy_fresnel)
+    the glossy layers reflect more of light that comes in at a slant (rise()), and the
+    diffuse part what they leave of the directions it goes to (Cycles' layering)."""
+    share = np.divide(glossy, reflectance, out=np.zeros_like(glossy),
+                      where=reflectance > 0.0).clip(0.0, 1.0)
+    glossy_part = taken * share
+    diffuse_part = taken - glossy_part
     summed = incoming.sum(axis=0)
-    if share.max() <= 0.0 or summed[3] <= 0.0:
-        return diffuse()
-    beta, travel = from_one_direction(summed[:3] / summed[3], normal)
+    beta, travel = ((0.0, -normal) if summed[3] <= 0.0
+                    else from_one_direction(summed[:3] / summed[3], normal))
+    if fresnel:
+        albedo = glossy.mean(axis=1)
+        white_sky = white_sky_albedo(albedo, roughness)
+        ratio = np.divide(white_sky, albedo, out=np.ones_like(albedo), where=albedo > 0.0)
+        from_one = beta * rise(min(max(-float(travel @ normal), 0.0), 1.0), ratio)
+        diffuse_part = diffuse_part * ((1.0 - white_sky) / (1.0 - albedo))[:, None]
+        lobed = glossy_part * from_one[:, None]
+        evenly = glossy_part * ((1.0 - beta) * ratio)[:, None]
+    else:
+        lobed, evenly = glossy_part * beta, glossy_part * (1.0 - beta)
+    power = (diffuse_part + lobed + evenly).sum(axis=0)
+    lobe_share = np.divide(lobed.sum(axis=0), power, out=np.zeros(3), where=power > 0.0)
+    exponent = roughness_exponent(float(roughness.mean()))
     down = float(travel @ normal)
-    exponent = roughness_exponent(roughness)
-    if exponent < LEAST_EXPONENT or down >= 0.0 or beta <= 0.0:
-        return diffuse()
+    if lobe_share.max() <= 0.0 or exponent < LEAST_EXPONENT or down >= 0.0:
+        return Reflection(power=power, lobe=diffuse())
     axis = travel - 2.0 * down * normal
-    return Lobe(axis=axis, exponent=exponent, share=share * beta,
-                scale=math.pi / lobe_integral(float(axis @ normal), exponent))
+    return Reflection(power=power, lobe=Lobe(
+        axis=axis, exponent=exponent, share=lobe_share,
+        scale=math.pi / lobe_integral(float(axis @ normal), exponent)))
+
+
+def white_sky_albedo(albedo, roughness):
+    """(N,) what Principled glossy layers of normal-incidence albedo ``albedo`` (N,) and
+    ``roughness`` (N,) reflect of light from all round: Schlick's Fresnel term's white-sky
+    mean, F0 + (1 - F0) / 21, with the albedo for F0 and the rise damped by the roughness as
+    Cycles' white furnace measures it (BENCHMARKS.md, "Glossy layers in a white furnace").
+    0 where there is no glossy layer."""
+    damping = np.minimum(np.exp(-RISE_DAMPING * (roughness - 0.2)), 1.0)
+    return np.where(albedo > 0.0, albedo + (1.0 - albedo) * damping / 21.0, 0.0)
+
+
+def rise(cosine, ratio):
+    """(N,) the glossy layers' albedo for light coming in at ``cosine`` over theirs at normal
+    incidence, for layers whose white-sky albedo is ``ratio`` (N,) times that: a rise towards
+    grazing of shape (1 - cos)^2.5 whose cosine-weighted mean is ratio."""
+    return 1.0 + (ratio - 1.0) * RISE_SHAPE * (1.0 - cosine) ** 2.5
 
 
 def lobe_integral(height, exponent):

@@ -168,7 +168,8 @@ def ledger(state, energy, gaps, lights_unshot):
     for power in lights_unshot:
         totals["unshot"] += power
     received = totals["received"] - gaps.shown_received + gaps.arrived
-    absorbed = totals["absorbed"] - gaps.shown_absorbed + gaps.arrived
+    absorbed = (totals["absorbed"] - gaps.shown_absorbed + gaps.arrived
+                - energy.reflected_surplus)
     return Ledger(energy.emitted.copy(), absorbed, energy.shot_power - received,
                   totals["unshot"])
 

@@ -120,7 +120,10 @@ class Scene:
     roughness (T,) in [0, 1], 1 by default: the roughness of the layers that reflect what the
     reflectance holds beyond the albedo (a Principled BSDF's specular, coat, metal). That
     share leaves in a lobe about the mirror direction of the light that came in, the wider
-    the rougher; at 1 it leaves as if diffuse (lobes.py).
+    the rougher; at 1 it leaves as if diffuse (lobes.py). glossy_fresnel: those layers are a
+    Principled BSDF's, whose albedo rises towards grazing light (Fresnel) while the diffuse
+    part below keeps what they leave (lobes.reflect); off, they reflect the reflectance's
+    share whatever the angle.
     The add-on gives the three per lightmap page: Cycles' evaluation of the materials at each
     texel.
     """
@@ -152,6 +155,7 @@ class Scene:
     reflectance_texture_index: np.ndarray = None
     reflectance_textures: list = field(default_factory=list)
     roughness: np.ndarray = None
+    glossy_fresnel: bool = False
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -417,7 +421,8 @@ class Scene:
             reflectance_texture_index=extend(self.reflectance_texture_index,
                                              self.reflectance_texture_index[backs]),
             reflectance_textures=self.reflectance_textures,
-            roughness=extend(self.roughness, self.roughness[backs]), lights=self.lights,
+            roughness=extend(self.roughness, self.roughness[backs]),
+            glossy_fresnel=self.glossy_fresnel, lights=self.lights,
             occlude=extend(self.occlude, np.zeros(len(backs), bool)), sky=self.sky,
             polygon=extend(self.polygon, np.full(len(backs), -1)))   # no UV map shows copies
         copy.back_of = extend(np.full(count, -1), backs)  # the original of each copy
@@ -465,6 +470,8 @@ class Scene:
                             for light in json.loads(str(values["lights"]))]
         values["object_names"] = [str(name) for name in values["object_names"]]
         values["object_texel_scale"] = values["object_texel_scale"].tolist()
+        if "glossy_fresnel" in values:
+            values["glossy_fresnel"] = bool(values["glossy_fresnel"])
         return cls(**values)
 
 

@@ -3,6 +3,7 @@ from each region (or its finer parts) a shooter: the coplanar texels around the 
 with similar unshot radiance, on one side of every occluder crossing the block, in a
 rectangle, and the quad they shoot from."""
 from dataclasses import dataclass, field
+import math
 
 import numpy as np
 
@@ -166,16 +167,21 @@ def make_shooter(state, caches, region, maps, charts):
         quad = shooter_quad(position[members, :3] - centre, texel_size[members], t, b,
                             total_area, centre)
     surface = int(maps.surface[strongest])
-    shot = radiance[members] * weights
+    taken_power = (radiance[members] * weights).sum(axis=0)
+    reflection = lobes.Reflection(power=taken_power, lobe=lobes.diffuse())
+    if state.glossy:
+        at = (texels + origin)[:, ::-1].T
+        reflection = lobes.reflect(
+            n, maps.incoming[members] * weights, radiance[members] * weights,
+            reflectance[members], _glossy_colour(state, page, texels + origin,
+                                                 reflectance[members]),
+            page.roughness[tuple(at)].astype(np.float64), fresnel=state.scene.glossy_fresnel)
     return Shooter(
         page=page, texels=texels + origin,
         centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
-        radiance=shot.sum(axis=0) / total_area, unshot=taken,
+        radiance=reflection.power / total_area, unshot=taken,
         incoming=maps.incoming[members].astype(np.float32) if state.glossy_lobes else None,
-        lobe=(lobes.make(n, maps.incoming[members] * weights, shot,
-                         shot * _glossy_share(state, page, texels + origin, reflectance[members]),
-                         _mean_roughness(page, texels + origin, weights))
-              if state.glossy_lobes else lobes.diffuse()),
+        lobe=reflection.lobe, surplus=math.pi * (reflection.power - taken_power),
         # Texels that do not receive (surface 0: an emitter's back) take no light, so a thin
         # gap's light does not bounce off them.
         albedo=((reflectance[members] * weights).sum(axis=0) / total_area if surface > 0
@@ -183,24 +189,17 @@ def make_shooter(state, caches, region, maps, charts):
         surface=surface)
 
 
-def _glossy_share(state, page, texels, reflectance):
-    """(N, 3) per texel the share of its unshot radiance its glossy layers reflect: its
-    reflectance beyond the diffuse albedo, over the reflectance; none where emission not yet
-    shot is in it (emitters shoot as if diffuse)."""
-    beyond = reflectance - page.albedo[texels[:, 1], texels[:, 0]]
-    share = np.divide(beyond, reflectance, out=np.zeros_like(beyond),
-                      where=reflectance > 0.0).clip(0.0, 1.0)
+def _glossy_colour(state, page, texels, reflectance):
+    """(N, 3) per texel what its glossy layers reflect at normal incidence: its reflectance
+    beyond the diffuse albedo; none where emission not yet shot is in its unshot light
+    (emitters shoot as if diffuse)."""
+    glossy = (reflectance - page.albedo[texels[:, 1], texels[:, 0]]).clip(0.0, None)
     emitting, power = page.emission_left
     if len(emitting):
         flat = texels[:, 1].astype(np.int64) * state.packed.width + texels[:, 0]
         where = np.searchsorted(emitting, flat).clip(0, len(emitting) - 1)
-        share[(emitting[where] == flat) & (power[where].max(axis=1) > 0.0)] = 0.0
-    return share
-
-
-def _mean_roughness(page, texels, weights):
-    return float((page.roughness[texels[:, 1], texels[:, 0]] * weights[:, 0]).sum()
-                 / weights.sum())
+        glossy[(emitting[where] == flat) & (power[where].max(axis=1) > 0.0)] = 0.0
+    return glossy
 
 
 def _lies_along(chart, normal):

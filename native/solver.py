@@ -300,7 +300,7 @@ class Solver:
             bounds=preprocess.bounds_of(scene),
             map_size=preprocess.visibility_map_size(settings, scene),
             surfaces=surfaces, emitting_surfaces=emitting_surfaces,
-            glossy_lobes=lobes.needed(scene))
+            glossy=lobes.has_glossy(scene), glossy_lobes=lobes.needed(scene))
         texel_bytes = memory.bytes_per_texel(scene)
         memory.check_surface_fits(scene, settings, self._fits_at)
         started = time.perf_counter()
@@ -449,6 +449,8 @@ class Solver:
         state, energy = self._state, self._energy
         powers = [math.pi * shooter.area * shooter.radiance for shooter in batch]
         energy.shot_power = energy.shot_power + sum(powers)
+        energy.reflected_surplus = energy.reflected_surplus + sum(
+            shooter.surplus for shooter in batch)
         # Each shooter looks from just above its surface and clips what lies behind it.
         views = [View(eye=shooter.centre + shooter.frame[:, 2] * state.bounds.epsilon,
                       frame=shooter.frame, orthographic=False) for shooter in batch]

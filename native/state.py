@@ -77,6 +77,7 @@ class BakeState:
     programs: dict = None
     per_face_visibility: bool = False   # the cube drawn face by face (preprocess.draws_per_face)
     receiver_batch: int = 1     # shooters per receiver pass (memory.receiver_batch)
+    glossy: bool = False        # some texels reflect through glossy layers (lobes.has_glossy)
     glossy_lobes: bool = False  # the pages keep incoming directions (lobes.needed)
     fullscreen: dict = None     # vertex arrays drawing one screen-filling triangle
     material_textures: dict = None   # Scene's texture lists, by name, on the GPU
@@ -94,6 +95,9 @@ class Energy:
     emitted: np.ndarray = None  # the texels' and the lights'
     emitted_scalar: float = 0.0
     shot_power: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    # What shooters sent beyond what their texels held (lobes.reflect: glossy layers reflect
+    # more of slanting light than the material map says): not absorbed.
+    reflected_surplus: np.ndarray = field(default_factory=lambda: np.zeros(3))
     # A sun shoots over the scene's bounding square: what misses the scene (three times what
     # lands, on the temple's ground) is emitted for the ledger but not left for the threshold
     # to wait on.
@@ -172,6 +176,7 @@ class Shooter:
     incoming: np.ndarray        # (N, 4) float32: and from its incoming directions (None
                                 # without lobes)
     lobe: object                # lobes.Lobe: where its glossy share goes
+    surplus: np.ndarray         # (3,) W: what it shoots beyond what it took (lobes.reflect)
     albedo: np.ndarray          # its texels' mean albedo: what a thin gap's far side bounces
     surface: int                # the surface number of its strongest texel (0: it does
                                 # not receive)
