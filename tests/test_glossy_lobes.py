@@ -57,17 +57,24 @@ def direct_irradiance(points):
     return POWER / (4.0 * math.pi) * (d[:, 0] / np.sqrt(distance2)) / distance2
 
 
+def bake(scene, ctx, **settings):
+    """The first page's lightmap and texel samples, and the ledger, of a bake to the end (the
+    ambient term off: what the shots delivered)."""
+    solver = Solver(scene, Settings(ambient=False, **settings), ctx=ctx)
+    try:
+        solver.run()
+        image, samples, ledger = solver.result()[0], solver.texel_samples()[0], solver.ledger()
+        assert ctx.error == "GL_NO_ERROR"
+        return image, samples, ledger
+    finally:
+        solver.release()
+
+
 def wall_reflected_light(ctx, roughness):
     """Per wall texel well inside the floor's mirror image: the irradiance Luxel's wall got
     from the floor (its lightmap less the lamp's direct light), and the image's truth."""
-    solver = Solver(mirror_floor_scene(roughness),
-                    Settings(texel_density=12, threshold=0.002, ambient=False), ctx=ctx)
-    try:
-        solver.run()
-        image, samples = solver.result()[0], solver.texel_samples()[0]
-        assert ctx.error == "GL_NO_ERROR"
-    finally:
-        solver.release()
+    image, samples, _ = bake(mirror_floor_scene(roughness), ctx, texel_density=12,
+                             threshold=0.002)
     position = samples["position"][samples["occupied"]]
     irradiance = image[samples["occupied"]][:, 1] * math.pi / WALL_ALBEDO
     on_wall = np.abs(position[:, 0] - WALL_X) < 1e-4
@@ -142,15 +149,7 @@ def test_a_furnace_of_blenders_default_material_reflects_cycles_white_sky_albedo
     scene = dataclasses.replace(scene, reflectance=np.full_like(scene.albedo, 0.770 + 0.0374),
                                 roughness=np.full(len(scene.triangles), 0.5),
                                 glossy_fresnel=True)
-    solver = Solver(scene, Settings(texel_density=16, shoot_level=1, threshold=0.002,
-                                    ambient=False), ctx=ctx)
-    try:
-        solver.run()
-        image = solver.result()[0]
-        ledger = solver.ledger()
-        assert ctx.error == "GL_NO_ERROR"
-    finally:
-        solver.release()
+    image, _, ledger = bake(scene, ctx, texel_density=16, shoot_level=1, threshold=0.002)
     values = image[image[..., 3] == 1][:, :3]
     np.testing.assert_allclose(values, 0.770 / (1.0 - 0.8107), rtol=0.015)
     assert ledger.imbalance() < 1e-4
