@@ -151,9 +151,12 @@ def reflect(normal, incoming, taken, reflectance, glossy, roughness, *, fresnel)
         lobed, evenly = glossy_part * beta, glossy_part * (1.0 - beta)
     power = (diffuse_part + lobed + evenly).sum(axis=0)
     lobe_share = np.divide(lobed.sum(axis=0), power, out=np.zeros(3), where=power > 0.0)
-    exponent = roughness_exponent(float(roughness.mean()))
     down = float(travel @ normal)
-    if lobe_share.max() <= 0.0 or exponent < LEAST_EXPONENT or down >= 0.0:
+    if lobe_share.max() <= 0.0 or down >= 0.0:
+        return Reflection(power=power, lobe=diffuse())
+    # The texels' roughness weighted by the power each sends into the lobe.
+    exponent = roughness_exponent(float(np.average(roughness, weights=lobed.sum(axis=1))))
+    if exponent < LEAST_EXPONENT:
         return Reflection(power=power, lobe=diffuse())
     axis = travel - 2.0 * down * normal
     return Reflection(power=power, lobe=Lobe(
