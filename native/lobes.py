@@ -127,8 +127,9 @@ class Reflection:
 def reflect(normal, incoming, taken, reflectance, glossy, roughness, *, fresnel):
     """The Reflection of a shooter of ``normal`` from its texels' rows: ``incoming`` (N, 4)
     the directions their unshot light came from, times their area (xyz, w: the weights'
-    sum); ``taken`` (N, 3) their unshot radiance times their area; ``reflectance`` (N, 3) what
-    they reflect, ``glossy`` (N, 3) its glossy layers' part at normal incidence (0 where the
+    sum; None in a scene that keeps none: light from all round); ``taken`` (N, 3) their
+    unshot radiance times their area; ``reflectance`` (N, 3) what they reflect,
+    ``glossy`` (N, 3) its glossy layers' part at normal incidence (0 where the
     unshot light is emission); ``roughness`` (N,). With ``fresnel`` (Scene.glossy_fresnel)
     the glossy layers reflect more of light that comes in at a slant (rise()), and the
     diffuse part what they leave of the directions it goes to (Cycles' layering)."""
@@ -136,7 +137,7 @@ def reflect(normal, incoming, taken, reflectance, glossy, roughness, *, fresnel)
                       where=reflectance > 0.0).clip(0.0, 1.0)
     glossy_part = taken * share
     diffuse_part = taken - glossy_part
-    summed = incoming.sum(axis=0)
+    summed = np.zeros(4) if incoming is None else incoming.sum(axis=0)
     beta, travel = ((0.0, -normal) if summed[3] <= 0.0
                     else from_one_direction(summed[:3] / summed[3], normal))
     if fresnel:

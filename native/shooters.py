@@ -39,10 +39,11 @@ class BlockMaps:
     unshot: np.ndarray      # (N, 4): radiance, texel size
     surface: np.ndarray     # (N,) surface numbers
     reflectance: np.ndarray  # (N, 3)
-    incoming: np.ndarray    # (N, 4): where the unshot light came from (lobes.py)
+    incoming: np.ndarray    # (N, 4): where the unshot light came from (lobes.py); None
+    #                         in scenes that keep none (BakeState.glossy_lobes)
 
     def rows(self, rows):
-        return BlockMaps(*(values[rows] for values in (
+        return BlockMaps(*(None if values is None else values[rows] for values in (
             self.position, self.normal, self.unshot, self.surface, self.reflectance,
             self.incoming)))
 
@@ -82,7 +83,7 @@ def read_blocks(state, caches, regions):
             for start, count, components in views]
     per_region = [rows[i::maps] for i in range(maps)]
     if not state.glossy_lobes:
-        per_region.append([np.zeros((len(position), 4)) for position in per_region[0]])
+        per_region.append([None] * len(regions))
     return [BlockMaps(position, decode_normals(normal), unshot,
                       np.floor(material[:, 3] * 65535.0 + 0.5), material[:, :3],  # decode_surface()
                       incoming)
@@ -172,7 +173,8 @@ def make_shooter(state, caches, region, maps, charts):
     if state.glossy:
         at = (texels + origin)[:, ::-1].T
         reflection = lobes.reflect(
-            n, maps.incoming[members] * weights, radiance[members] * weights,
+            n, None if maps.incoming is None else maps.incoming[members] * weights,
+            radiance[members] * weights,
             reflectance[members], _glossy_colour(state, page, texels + origin,
                                                  reflectance[members]),
             page.roughness[tuple(at)].astype(np.float64), fresnel=state.scene.glossy_fresnel)
@@ -180,7 +182,7 @@ def make_shooter(state, caches, region, maps, charts):
         page=page, texels=texels + origin,
         centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
         radiance=reflection.power / total_area, unshot=taken,
-        incoming=maps.incoming[members].astype(np.float32) if state.glossy_lobes else None,
+        incoming=None if maps.incoming is None else maps.incoming[members].astype(np.float32),
         lobe=reflection.lobe, surplus=math.pi * (reflection.power - taken_power),
         # Texels that do not receive (surface 0: an emitter's back) take no light, so a thin
         # gap's light does not bounce off them.
