@@ -11,8 +11,9 @@ page's images go to the solver as textures through the atlas UVs: the albedo is 
 lightmap shows (a Cycles DIFFUSE bake's colour), the albedo plus the glossy colour what the
 surface reflects into the room, its glossy share in a lobe as wide as the roughness at the
 triangle's centre (native/lobes.py; see README, "Materials"). Materials whose nodes
-cannot vary over the surface bake at one sample per texel, the others at MATERIAL_SAMPLES
-jittered over the texel (Cycles' pixel filter averages what lies inside a texel).
+cannot vary over the surface bake at one sample per sub-texel, SUPERSAMPLE x SUPERSAMPLE a
+texel, each texel the mean of those on a triangle; the others at MATERIAL_SAMPLES jittered
+over the texel (Cycles' pixel filter averages what lies around its centre).
 
 Cycles bakes temporary copies of the evaluated meshes, with temporary copies of their
 materials, each alone in a temporary scene: the user's scene, objects, materials, images,
@@ -28,6 +29,13 @@ from ..native.postprocess import fill_gutter
 from .display import NODE_PREFIX, STATE_KEY, strip_display_nodes
 
 MATERIAL_SAMPLES = 32       # Cycles samples per texel of a material that varies
+# A material that cannot vary over a surface bakes SUPERSAMPLE x SUPERSAMPLE sub-texels a
+# texel: Cycles writes a pixel only where its centre lies on a triangle, and the solver's
+# texels are every one a triangle touches (a letter's stroke, a cable, a chart's border): a
+# strip a quarter of a texel wide is found. One that varies bakes a pixel a texel, as Cycles'
+# DIFFUSE bake samples it (its pixel filter about the centre), and the gutter fill gives
+# the texels that only cross its surface their neighbours' colour.
+SUPERSAMPLE = 4
 MAX_ALBEDO = 0.999          # a diffuse surface cannot reflect everything (native checks < 1)
 TEXTURE_TINT = 0.9999       # the solver multiplies the textures by it; it must stay below 1
 TEMP_PREFIX = "Luxel Materials "
@@ -276,7 +284,8 @@ def _baking_material(original, bake):
 def _bake_pages(copies, atlas, bake):
     """Per page, the albedo, glossy colour and emission (H, W, 3) and the roughness (H, W; 1
     where nothing is glossy), row 0 at v = 0: each object's box pasted where Cycles baked a
-    texel (its centre on a triangle), the gutters around the charts filled."""
+    texel or, for a material that cannot vary, one of its sub-texels (texel_means), the
+    gutters around the charts filled."""
     settings = bake.scene
     settings.render.engine = 'CYCLES'
     cycles = settings.cycles
@@ -295,12 +304,12 @@ def _bake_pages(copies, atlas, bake):
         pages = np.zeros((atlas.page_count, atlas.height, atlas.width, 4), dtype=np.float32)
         images = {}
         for copy in chosen:
-            width, height = (int(n) for n in copy.size)
+            width, height = (int(n) * _supersample(copy) for n in copy.size)
             image = images[id(copy)] = bpy.data.images.new(
                 f"{TEMP_PREFIX}{kind}", width, height, alpha=True, float_buffer=True)
             bake.images.append(image)
             image.colorspace_settings.name = 'Linear Rec.709'
-            image.pixels.foreach_set(np.zeros(width * height * 4, dtype=np.float32))
+            image.pixels.foreach_set(np.zeros(len(image.pixels), dtype=np.float32))
             for material in copy.obj.data.materials:
                 material.node_tree.nodes.active.image = image
         # One object at a time in the scene: Cycles syncs the whole scene for each object it
@@ -323,7 +332,8 @@ def _bake_pages(copies, atlas, bake):
             width, height = image.size
             pixels = np.empty(width * height * 4, dtype=np.float32)
             image.pixels.foreach_get(pixels)
-            pixels = pixels.reshape(height, width, 4)
+            pixels = texel_means(pixels.reshape(height, width, 4), _supersample(copy))
+            height, width = pixels.shape[:2]
             baked = pixels[..., 3] > 0.0
             (x, y), page = copy.low, copy.page
             box = pages[page, y:y + height, x:x + width]
@@ -336,6 +346,25 @@ def _bake_pages(copies, atlas, bake):
             fill_gutter(page, GUTTER_TEXELS)
         passes.append([page[..., :3] for page in pages])
     return passes
+
+
+def _supersample(copy):
+    return 1 if copy.varies else SUPERSAMPLE
+
+
+def texel_means(pixels, supersample):
+    """(H, W, 4) of an (H s, W s, 4) Cycles bake, s = ``supersample``: each texel's mean over
+    its sub-texels Cycles covered (their centres on a triangle), alpha their share."""
+    if supersample == 1:
+        return pixels
+    height, width = pixels.shape[0] // supersample, pixels.shape[1] // supersample
+    blocks = pixels.reshape(height, supersample, width, supersample, 4).astype(np.float64)
+    covered = (blocks[..., 3] > 0.0)[..., None]
+    count = covered.sum(axis=(1, 3))
+    colour = np.divide((blocks[..., :3] * covered).sum(axis=(1, 3)), count,
+                       out=np.zeros((height, width, 3)), where=count > 0)
+    share = count / float(supersample * supersample)
+    return np.concatenate([colour, share], axis=2).astype(np.float32)
 
 
 def _is_glossy(copy, glossy):

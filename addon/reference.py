@@ -14,6 +14,7 @@ import numpy as np
 from ..native.evaluation.texel_error import texel_noise
 from .display import STATE_KEY, strip_display_nodes
 from .export import DEFAULT_ALBEDO
+from .materials import texel_means
 from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, UV_MAP, image_name, snapshot_of
 
 PASS_FILTER = {'DIRECT', 'INDIRECT', 'COLOR'}
@@ -50,7 +51,7 @@ class _Copy:
 
 
 def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0, copies=False,
-                     pass_filter=PASS_FILTER):
+                     pass_filter=PASS_FILTER, supersample=1):
     """Bake each receiving object with Cycles into a temporary float image the size of its
     lightmap. Returns {object name: (H, W, 4) float32 array}, row 0 at the bottom (v = 0), like
     Luxel's pages; alpha is 1 where Cycles wrote a texel (a texel centre inside one of the
@@ -63,7 +64,14 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0, cop
     UVs carry their offsets (see luxel_page).
 
     ``pass_filter`` {'COLOR'} bakes the albedo instead: the diffuse colour Cycles multiplies
-    the light by."""
+    the light by.
+
+    With ``supersample`` s > 1, Cycles bakes the same UVs into images s times as wide and
+    high, and each texel gets the mean of its s x s sub-texels that Cycles covered, alpha
+    their covered share: the mean over the texel's surface, as a Luxel texel holds it. At
+    s = 1 Cycles samples a texel only on the triangle under its centre, whose normal alone
+    it shades with: where a texel spans a bend (a cable narrower than a texel) its value is
+    that of one facet, and it is missing where no triangle covers its centre."""
     scene = context.scene
     targets = receivers(scene, objects)
     if context.mode != 'OBJECT':
@@ -85,8 +93,8 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0, cop
                 targets.append(stand_in)
         for key, obj in zip(keys, targets):
             width, height = luxel_page(scene, key).size
-            image = bpy.data.images.new(TEMP_PREFIX + key, width, height, alpha=True,
-                                        float_buffer=True)
+            image = bpy.data.images.new(TEMP_PREFIX + key, width * supersample,
+                                        height * supersample, alpha=True, float_buffer=True)
             temporary_images.append(image)
             image.colorspace_settings.name = 'Linear Rec.709'
             _point_materials_at(obj, image, temporary_materials, slot_changes, added_slots)
@@ -104,7 +112,7 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0, cop
             width, height = image.size
             pixels = np.empty(width * height * 4, dtype=np.float32)
             image.pixels.foreach_get(pixels)
-            results[key] = pixels.reshape(height, width, 4)
+            results[key] = texel_means(pixels.reshape(height, width, 4), supersample)
     finally:
         _restore_slots(slot_changes, added_slots)
         _restore_slots(preview_changes, [])

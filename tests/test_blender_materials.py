@@ -167,6 +167,45 @@ def test_emission_of_a_procedural_texture_emits_its_integral():
     np.testing.assert_allclose(emitted, 2.0 * math.pi * 4.0 * 4.0 * 0.5, rtol=0.01)
 
 
+SIGN_COLOUR = (0.2, 0.5, 0.8)
+
+
+def test_letters_thinner_than_a_texel_get_their_colour_on_every_texel_they_touch():
+    """Extruded text at 10 cm texels, its strokes and sides a few centimetres wide (the
+    interior's sign), under a slanting sun: on every texel a letter touches (where Cycles,
+    baking 4 x 4 sub-texels a texel, finds it) Luxel's albedo is the material's colour, and
+    its lightmap's mean is Cycles' DIFFUSE bake's mean over the same sub-texels within 5 %.
+    Cycles writes a texel only where its centre lies on a triangle: texels a stroke only
+    crossed took no colour, and their lightmap was black."""
+    scene = blender_session.empty_file()
+    text = bpy.data.curves.new("Sign", "FONT")
+    text.body, text.extrude, text.size = "LUXEL", 0.02, 0.4
+    text.materials.append(blender_scenes.material("Sign", SIGN_COLOUR))
+    sign = bpy.data.objects.new("Sign", text)
+    scene.collection.objects.link(sign)
+    blender_scenes.light(scene, "Sun", 'SUN', (0, 0, 5), rotation=(0.5, 0.3, 0.0),
+                         energy=SUN)
+    blender_scenes.luxel_settings(scene, 10.0)
+    job = addon.bake.BakeJob(bpy.context)
+    try:
+        while not job.step(1.0):
+            pass
+        albedo_pages = job.export.scene.albedo_textures
+        job.finish()
+    except BaseException:
+        job.release()
+        raise
+    cycles = reference.cycles_reference(bpy.context, samples=16, bounces=4, copies=True,
+                                        supersample=4)["Sign"]
+    touched = cycles[..., 3] > 0
+    page = reference.luxel_page(scene, "Sign")
+    albedo = albedo_pages[int(page[addon.writeback.PAGE_KEY])][touched]
+    np.testing.assert_allclose(albedo * addon.materials.TEXTURE_TINT,
+                               np.broadcast_to(SIGN_COLOUR, albedo.shape), rtol=0.01)
+    mean = reference.object_means({"Sign": cycles})["Sign"]
+    np.testing.assert_allclose(mean.luxel, mean.cycles, rtol=0.05)
+
+
 def test_evaluation_leaves_the_file_as_it_was_also_when_it_fails(monkeypatch):
     """No temporary scene, object, mesh, material or image stays, the user's render settings
     and active UV maps are untouched, after a bake and after a failing one."""
