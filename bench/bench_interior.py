@@ -5,12 +5,16 @@ through Luxel's modifier, curves, text and instances through stand-ins of their 
 meshes: addon/reference.py, copies=True).
 
     python bench/bench_interior.py [--density D] [--threshold T] [--samples N]
-                                   [--default-materials] [--without NAME ...] [--json PATH]
+                                   [--supersample S] [--default-materials]
+                                   [--without NAME ...] [--blend NAME] [--json PATH]
 
 --default-materials gives every Principled BSDF Blender's default specular layer (Specular
 IOR Level 0.5, Roughness 0.5) in place of the file's matte ones; --without deletes the named
 objects (a light, say) first. --samples is Cycles': with fewer, the small copies' means carry
-Cycles' own noise (BENCHMARKS.md, the realistic interior). Cycles' bakes are kept in
+Cycles' own noise (BENCHMARKS.md, the realistic interior). --supersample S has Cycles bake
+S x S sub-texels a texel and compares with their mean over the texel's surface
+(reference.cycles_reference). --blend bakes another of sample_blends/ the same way (office,
+living, temple). Cycles' bakes are kept in
 bench/cache/, keyed by the file, the options that change what Cycles sees and the lightmap
 UV layout, so that a run whose layout did not change bakes Luxel only.
 """
@@ -37,14 +41,16 @@ def main():
     parser.add_argument("--density", type=float, default=10.0)
     parser.add_argument("--threshold", type=float, default=0.02)
     parser.add_argument("--samples", type=int, default=1024)
+    parser.add_argument("--supersample", type=int, default=1)
     parser.add_argument("--default-materials", action="store_true")
     parser.add_argument("--without", action="append", default=[], metavar="NAME")
+    parser.add_argument("--blend", default="interior", metavar="NAME")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     bpy = runner.start_blender()
     addon = runner.luxel().addon
     reference = importlib.import_module(runner.MODULE + ".addon.reference")
-    bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / "interior.blend"))
+    bpy.ops.wm.open_mainfile(filepath=str(_blend_path(args)))
     scene = bpy.context.scene
     scene.luxel.texel_density, scene.luxel.threshold = args.density, args.threshold
     for name in args.without:
@@ -70,12 +76,13 @@ def main():
     seconds = time.perf_counter() - started
     stats = scene.luxel.stats
     started = time.perf_counter()
-    cache = ROOT / "bench" / "cache" / f"interior-{_digest(bpy, args)}.npz"
+    cache = ROOT / "bench" / "cache" / f"{args.blend}-{_digest(bpy, args)}.npz"
     if cache.exists():
         with np.load(cache) as stored:
             cycles = {name.replace("|", "/"): stored[name] for name in stored.files}
     else:
-        cycles = reference.cycles_reference(bpy.context, args.samples, BOUNCES, copies=True)
+        cycles = reference.cycles_reference(bpy.context, args.samples, BOUNCES, copies=True,
+                                            supersample=args.supersample)
         cache.parent.mkdir(exist_ok=True)
         np.savez_compressed(cache, **{name.replace("/", "|"): image
                                       for name, image in cycles.items()})
@@ -99,9 +106,10 @@ def main():
               "bake_seconds": seconds, "texels": stats.texels, "shots": stats.shots,
               "unshot_percent": stats.unshot, "density": args.density,
               "threshold": args.threshold, "cycles_samples": args.samples,
+              "cycles_supersample": args.supersample,
               "default_materials": args.default_materials,
               "cycles_seconds": cycles_seconds, "cycles_cached": cache.name,
-              "without": args.without, "objects": rows,
+              "blend": args.blend, "without": args.without, "objects": rows,
               "warnings": list(export.warnings)}
     print(f"shown {100 * result['area_shown']:.1f} % of the rendered area; bake {seconds:.1f} s, "
           f"{stats.texels} texels, {stats.shots} shots; Cycles {cycles_seconds:.1f} s")
@@ -116,9 +124,10 @@ def _digest(bpy, args):
     """What decides Cycles' bakes: the file, the options, and the lightmap UV layout (the
     lightmap UV maps, the evaluated corners' snapshots and the page sizes)."""
     writeback = importlib.import_module(runner.MODULE + ".addon.writeback")
-    digest = hashlib.sha256((ROOT / "sample_blends" / "interior.blend").read_bytes())
-    digest.update(repr((args.samples, BOUNCES, args.default_materials,
-                        sorted(args.without))).encode())
+    digest = hashlib.sha256(_blend_path(args).read_bytes())
+    key = (args.samples, BOUNCES, args.default_materials, sorted(args.without))
+    # A plain bake keeps the key it had before supersampling was an option.
+    digest.update(repr(key if args.supersample == 1 else key + (args.supersample,)).encode())
     for mesh in sorted(bpy.data.meshes, key=lambda mesh: mesh.name):
         for name in (writeback.UV_MAP, writeback.SNAPSHOT_ATTRIBUTE,
                      writeback.SNAPSHOT_BACK_ATTRIBUTE):
@@ -131,6 +140,10 @@ def _digest(bpy, args):
     for image in sorted(bpy.data.images, key=lambda image: image.name):
         digest.update(f"{image.name} {tuple(image.size)}".encode())
     return digest.hexdigest()[:16]
+
+
+def _blend_path(args):
+    return ROOT / "sample_blends" / f"{args.blend}.blend"
 
 
 if __name__ == "__main__":
