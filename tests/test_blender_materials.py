@@ -108,12 +108,8 @@ def planes_scene():
     return scene
 
 
-def test_albedo_of_any_node_tree_is_cycles_diffuse_colour_per_texel():
-    """Per texel, the albedo Luxel solves with is Cycles' own DIFFUSE COLOR bake of the same
-    UVs (2 % RMS, 1 % in the mean: both are sampled, Luxel's at 32 samples a texel), and each
-    lightmap is a Cycles DIFFUSE bake's within 5 % in the mean and RMS per texel (the tiling
-    a Mapping node makes leaves the mean as it is)."""
-    scene = planes_scene()
+def bake_keeping_albedo():
+    """Bake the current scene with Luxel; returns the albedo pages it solved with."""
     job = addon.bake.BakeJob(bpy.context)
     try:
         while not job.step(1.0):
@@ -123,6 +119,16 @@ def test_albedo_of_any_node_tree_is_cycles_diffuse_colour_per_texel():
     except BaseException:
         job.release()
         raise
+    return albedo_pages
+
+
+def test_albedo_of_any_node_tree_is_cycles_diffuse_colour_per_texel():
+    """Per texel, the albedo Luxel solves with is Cycles' own DIFFUSE COLOR bake of the same
+    UVs (2 % RMS, 1 % in the mean: both are sampled, Luxel's at 32 samples a texel), and each
+    lightmap is a Cycles DIFFUSE bake's within 5 % in the mean and RMS per texel (the tiling
+    a Mapping node makes leaves the mean as it is)."""
+    scene = planes_scene()
+    albedo_pages = bake_keeping_albedo()
     colour = reference.cycles_reference(bpy.context, samples=256, pass_filter={'COLOR'})
     lit = reference.cycles_reference(bpy.context, samples=256, bounces=4)
     for name in MATERIALS:
@@ -186,15 +192,7 @@ def test_letters_thinner_than_a_texel_get_their_colour_on_every_texel_they_touch
     blender_scenes.light(scene, "Sun", 'SUN', (0, 0, 5), rotation=(0.5, 0.3, 0.0),
                          energy=SUN)
     blender_scenes.luxel_settings(scene, 10.0)
-    job = addon.bake.BakeJob(bpy.context)
-    try:
-        while not job.step(1.0):
-            pass
-        albedo_pages = job.export.scene.albedo_textures
-        job.finish()
-    except BaseException:
-        job.release()
-        raise
+    albedo_pages = bake_keeping_albedo()
     cycles = reference.cycles_reference(bpy.context, samples=16, bounces=4, copies=True,
                                         supersample=4)["Sign"]
     touched = cycles[..., 3] > 0
