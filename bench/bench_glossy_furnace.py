@@ -35,6 +35,8 @@ MATERIALS = {
     "default, roughness 1": {"Roughness": 1.0},
     "default (roughness 0.5)": {},
     "default, roughness 0.2": {"Roughness": 0.2},
+    "default, roughness 0.35": {"Roughness": 0.35},
+    "default, roughness 0.75": {"Roughness": 0.75},
     "default, base 0.4": {"Base Color": (0.4, 0.4, 0.4, 1.0)},
     "default, base 0.1": {"Base Color": (0.1, 0.1, 0.1, 1.0)},
     "coat 1": {"Coat Weight": 1.0},
