@@ -131,7 +131,6 @@ def test_light_from_all_round_leaves_as_if_diffuse_and_from_one_direction_in_a_l
     np.testing.assert_allclose(direction, one, atol=1e-6)
 
 
-
 def test_the_lobe_is_as_wide_as_the_roughness_of_the_texels_that_send_into_it():
     """A shooter of a glossy texel (roughness 0.5) and a matte one (roughness 1, no glossy
     layer): the lobe is the glossy texel's, Phong exponent (2 / alpha^2 - 2) / 4 for GGX's
@@ -145,6 +144,7 @@ def test_the_lobe_is_as_wide_as_the_roughness_of_the_texels_that_send_into_it():
         fresnel=False)
     assert reflection.lobe.exponent == pytest.approx((2.0 / 0.5 ** 4 - 2.0) / 4.0)
     np.testing.assert_allclose(reflection.lobe.axis, [0.6, 0.0, 0.8], atol=1e-9)
+
 
 def test_only_scenes_with_smooth_glossy_layers_keep_incoming_directions():
     assert lobes.needed(mirror_floor_scene(0.5))
