@@ -162,13 +162,13 @@ def texel_samples(state):
 
 def ledger(state, energy, gaps, lights_unshot):
     """The Ledger from the maps, the power (W) of each light not yet shot, and the thin gaps'
-    totals (thin_gaps.ThinGaps): what their receivers' maps show is not what arrived; all
-    that arrived was absorbed in the gap."""
+    totals (thin_gaps.ThinGaps): what their receivers' maps show is not what arrived; what
+    arrived was absorbed in the gap, but what left it as unshot light."""
     totals = map_totals(state)
     for power in lights_unshot:
         totals["unshot"] += power
     received = totals["received"] - gaps.shown_received + gaps.arrived
-    absorbed = (totals["absorbed"] - gaps.shown_absorbed + gaps.arrived
+    absorbed = (totals["absorbed"] - gaps.shown_absorbed + gaps.arrived - gaps.escaped
                 - energy.reflected_surplus)
     return Ledger(energy.emitted.copy(), absorbed, energy.shot_power - received,
                   totals["unshot"])

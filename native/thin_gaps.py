@@ -1,7 +1,8 @@
 """Thin gaps between facing surfaces (a lamp 1 cm under a ceiling): the plane geometry that
 spreads a shooter's light over the receivers' texel squares, and the band along a gap's open
 edge where its light leaks out; then the solver's thin-gap stage (close), which gives the
-receivers across a thin gap from a shooter all the gap's bounces at once. Points in the
+receivers across a thin gap from a shooter all the gap's bounces at once, and what leaves the
+gap back to the room. Points in the
 shooter's plane are complex numbers: a few dozen operations per texel, where numpy's per-call
 cost would dominate."""
 from dataclasses import dataclass, field
@@ -177,6 +178,18 @@ def edge_band(p):
     return np.where(x > 0.0, 1.0 - lit, -lit)
 
 
+@functools.lru_cache(maxsize=None)
+def edge_escape(p):
+    """Across a straight open edge of a thin gap, per band cell: the receiver's irradiance
+    there over the infinite plates' (edge_band's lit share) times the share of its reflection
+    that misses the shooter's half-plane and leaves the gap (1/2 - seen: Lambert's law between
+    parallel planes, integrated along the edge). Times the receiver's albedo, it is what the
+    receiver's plane reflects out into the room there."""
+    centres, _ = band_cells()
+    lit = np.where(centres > 0.0, 1.0, 0.0) - edge_band(p)
+    return lit * (0.5 - 0.5 * centres / np.sqrt(centres * centres + 1.0))
+
+
 def edge_deficit(p):
     """The light a straight open edge of a thin gap loses, in gap heights: edge_band summed
     across the edge. 0 for p = 0: the direct light missing inside the edge falls just outside
@@ -245,6 +258,7 @@ class ThinGaps:
     shown_received: np.ndarray = field(default_factory=lambda: np.zeros(3))
     shown_absorbed: np.ndarray = field(default_factory=lambda: np.zeros(3))
     arrived: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    escaped: np.ndarray = field(default_factory=lambda: np.zeros(3))   # left unshot
 
 
 def create(state):
@@ -276,13 +290,18 @@ def surface_extent(state, gaps, surface, centre, t, b):
     the surface (all triangles of its number), or an empty one for no surface (0)."""
     if surface <= 0:
         return NO_SURFACE
+    offsets = surface_triangles(state, gaps, surface).reshape(-1, 3) - centre
+    u, v = offsets @ t, offsets @ b
+    return (float(u.min()), float(u.max()), float(v.min()), float(v.max()))
+
+
+def surface_triangles(state, gaps, surface):
+    """(T, 3, 3) the world corners of the triangles of a surface number."""
     corners = gaps.surface_corners.get(surface)
     if corners is None:
         corners = gaps.surface_corners[surface] = state.scene.vertices[
             state.scene.triangles[state.surfaces == surface]]
-    offsets = corners.reshape(-1, 3) - centre
-    u, v = offsets @ t, offsets @ b
-    return (float(u.min()), float(u.max()), float(v.min()), float(v.max()))
+    return corners
 
 
 def near_thin_gap(state, gaps, region, position, normal, texel_size):
@@ -322,7 +341,8 @@ def close(state, gaps, shooter):
     with all the gap's bounces at once. Between facing surfaces far closer than a texel,
     light shot at a point bounces between the two at that point until absorbed: a receiver
     of albedo rho_r over a shooter of albedo rho_s shows pi L / (1 - rho_r rho_s) and
-    reflects none of it out. What arrives is pi L times the share of its square under what
+    reflects none of it out but along the surface's open edges, where its reflection that
+    misses the shooter leaves the gap (edge_escape) as unshot light. What arrives is pi L times the share of its square under what
     the shooter's texels cover (lit_by: the shooters of a surface tile it exactly, where
     their quads, rectangles of their texels' area, leave holes along a slanted edge). What
     it shows is the share of the middle of its square (SHOWN_SQUARE) under them, less the
@@ -371,23 +391,62 @@ def close(state, gaps, shooter):
         shown_share = np.repeat([[share_under(middle, lit)] for middle in middles], 3, axis=1)
         albedo = texels.albedo[chosen].astype(np.float64)
         kept = np.minimum(albedo * shooter.albedo, MAX_KEPT)
+        escaping = np.zeros_like(shown_share)
         if open_edges:
-            # Along an open edge the band where the light leaks out (edge_band),
-            # summed over the middle of the square chord by chord.
+            # Along an open edge the band where the light leaks out (edge_band), summed
+            # over the middle of the square chord by chord; and over the whole square, the
+            # light its reflection sends out of the gap (edge_escape).
             cells, widths = band_cells()
-            for row, (middle, gap) in enumerate(zip(middles, height[inside])):
-                chords = sum(chord_lengths(middle, start, end, cells * gap)
-                             for start, end in open_edges) * widths * gap / area(middle)
-                shown_share[row] -= [(edge_band(round(float(kept_share), 3)) * chords).sum()
-                                     for kept_share in kept[row]]
+            for row, (point, half_t, half_b, middle, gap) in enumerate(
+                    zip(points, *halves, middles, height[inside])):
+                whole = square(point, half_t, half_b)
+                chords, whole_chords = (
+                    sum(chord_lengths(outline, start, end, cells * gap)
+                        for start, end in open_edges) * widths * gap / area(outline)
+                    for outline in (middle, whole))
+                products = [round(float(kept_share), 3) for kept_share in kept[row]]
+                shown_share[row] -= [(edge_band(p) * chords).sum() for p in products]
+                escaping[row] = [(edge_escape(p) * whole_chords).sum() for p in products]
             shown_share = np.clip(shown_share, 0.0, 1.0)
         texel_area = texels.area[chosen, None].astype(np.float64)
-        shown = (math.pi * shooter.radiance * shown_share / (1.0 - kept)).astype(np.float32)
+        plates = math.pi * shooter.radiance / (1.0 - kept)
+        shown = (plates * shown_share).astype(np.float32)
         _add_irradiance(state, page, texels.xy[chosen], shown)
+        if escaping.any():
+            unshot = _escaping_unshot(state, gaps, shooter, albedo * plates * escaping,
+                                      texel_area[:, 0], [square(point, half_t, half_b)
+                                                         for point, half_t, half_b
+                                                         in zip(points, *halves)], plane)
+            _add_unshot(state, page, texels.xy[chosen], unshot.astype(np.float32))
+            gaps.escaped += math.pi * (unshot * texel_area).sum(axis=0)
         gaps.shown_received += (shown * texel_area).sum(axis=0)
         gaps.shown_absorbed += ((1.0 - albedo) * shown * texel_area).sum(axis=0)
         arrived = math.pi * shooter.radiance * under[:, None] * texel_area
         gaps.arrived += arrived.sum(axis=0)
+
+
+def _escaping_unshot(state, gaps, shooter, escaping, texel_area, squares, plane):
+    """The unshot radiance (N, 3) that takes the light leaving the gap (``escaping``:
+    irradiance times albedo, (N, 3)) on into the room. A texel shoots its unshot light from
+    its sample point over all its square: over the shooter's surface it would send it back
+    into the gap. So the escaping power goes to the texels by the area of their square beside
+    the surface; where every texel lies over the surface, it stays where it left."""
+    surface = shooter.surface if shooter.surface > 0 else charted_surface(state, gaps, shooter)
+    if surface <= 0:
+        return escaping / math.pi
+    flat = (surface_triangles(state, gaps, surface) - shooter.centre) @ plane   # (T, 3, 2)
+    every = np.array([[p.real, p.imag] for outline in squares for p in outline])
+    low, high = every.min(axis=0), every.max(axis=0)
+    near = np.nonzero((flat.max(axis=1) >= low).all(axis=1)
+                      & (flat.min(axis=1) <= high).all(axis=1))[0]
+    outlines = [[complex(x, y) for x, y in flat[i]] for i in near]
+    beside_area = texel_area * (1.0 - np.array([share_under(outline, outlines)
+                                                for outline in squares]))
+    if beside_area.sum() <= 1e-6 * texel_area.sum():
+        return escaping / math.pi
+    power = (escaping * texel_area[:, None]).sum(axis=0)
+    return np.outer(beside_area / texel_area, power / beside_area.sum()) / math.pi
+
 
 def lit_by(state, gaps, shooter):
     """What a shooter's texels cover: world polygons (the triangles on its page clipped to
@@ -517,6 +576,14 @@ def receiving_texels(state, gaps):
                 side=np.sqrt(area.astype(np.float64)), area=area, albedo=material[y, x, :3],
                 largest_side=float(np.sqrt(area.max(initial=0.0)))))
     return gaps.receiving_texels
+
+
+def _add_unshot(state, page, texels, radiance):
+    """Add (N, 3) radiance to the unshot light of the texels (N, 2) of a page."""
+    values = np.zeros((len(texels), 4), dtype=np.float32)
+    values[:, :3] = radiance
+    blend_points(state, page.unshot_only, texels, values, moderngl.FUNC_ADD)
+
 
 def _add_irradiance(state, page, texels, irradiance):
     """Add (N, 3) irradiance to the texels (N, 2) of a page, leaving their unshot light."""

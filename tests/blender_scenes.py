@@ -186,6 +186,34 @@ def world_scene():
     return scene
 
 
+def panel_room_scene():
+    """A closed 4 x 3 x 2.5 m room lit by a glowing ceiling panel 1 cm under the ceiling (a
+    thin gap at 7 texels/m), as offices are modelled. Its back glows into the gap, where the
+    light bounces between the panel and the ceiling, and what misses the panel at its edge
+    leaves into the room."""
+    scene = blender_session.empty_file()
+    wall = material("RoomWall", (0.8, 0.8, 0.8))
+    floor = material("RoomFloor", FLOOR)
+    x, y, h = 2.0, 1.5, 2.5
+    centre = (0.0, 0.0, h / 2)
+    for name, corners, mat in (
+            ("Floor", [(-x, -y, 0), (x, -y, 0), (x, y, 0), (-x, y, 0)], floor),
+            ("Ceiling", [(-x, -y, h), (x, -y, h), (x, y, h), (-x, y, h)], wall),
+            ("WallSouth", [(-x, -y, 0), (x, -y, 0), (x, -y, h), (-x, -y, h)], wall),
+            ("WallNorth", [(-x, y, 0), (x, y, 0), (x, y, h), (-x, y, h)], wall),
+            ("WallWest", [(-x, -y, 0), (-x, y, 0), (-x, y, h), (-x, -y, h)], wall),
+            ("WallEast", [(x, -y, 0), (x, y, 0), (x, y, h), (x, -y, h)], wall)):
+        _face(quad(scene, name, corners, mat), centre, towards=True)
+    panel = quad(scene, "Panel", [(-0.4, -0.4, h - 0.01), (0.4, -0.4, h - 0.01),
+                                  (0.4, 0.4, h - 0.01), (-0.4, 0.4, h - 0.01)],
+                 material("PanelGlow", (0.8, 0.8, 0.8), emission=(1.0, 0.95, 0.85),
+                          strength=20.0))
+    _face(panel, centre, towards=True)
+    panel.luxel.receive = False
+    luxel_settings(scene, 7.0)
+    return scene
+
+
 def cornell_scene(density=30.0):
     """The Cornell box from its published data (millimetres, y up), turned z up (Blender
     (x, y, z) = (x, -z, y) / 1000), open at the front, lit by its 130 x 105 mm light as a
@@ -235,6 +263,7 @@ def _face(obj, point, towards):
 
 
 SCENES = {
+    "panel-room": panel_room_scene,
     "point": point_scene,
     "spot": spot_scene,
     "sun": sun_scene,
