@@ -6,11 +6,13 @@ meshes: addon/reference.py, copies=True).
 
     python bench/bench_interior.py [--density D] [--threshold T] [--samples N]
                                    [--supersample S] [--default-materials]
-                                   [--without NAME ...] [--blend NAME] [--json PATH]
+                                   [--without NAME ...] [--lower PREFIX METRES]
+                                   [--blend NAME] [--json PATH]
 
 --default-materials gives every Principled BSDF Blender's default specular layer (Specular
 IOR Level 0.5, Roughness 0.5) in place of the file's matte ones; --without deletes the named
-objects (a light, say) first. --samples is Cycles': with fewer, the small copies' means carry
+objects (a light, say) first; --lower moves the objects whose names start with PREFIX down
+(the office's ceiling lights out of their thin gap, say). --samples is Cycles': with fewer, the small copies' means carry
 Cycles' own noise (BENCHMARKS.md, the realistic interior). --supersample S has Cycles bake
 S x S sub-texels a texel and compares with their mean over the texel's surface
 (reference.cycles_reference). --blend bakes another of sample_blends/ the same way (office,
@@ -44,6 +46,7 @@ def main():
     parser.add_argument("--supersample", type=int, default=1)
     parser.add_argument("--default-materials", action="store_true")
     parser.add_argument("--without", action="append", default=[], metavar="NAME")
+    parser.add_argument("--lower", nargs=2, metavar=("PREFIX", "METRES"))
     parser.add_argument("--blend", default="interior", metavar="NAME")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
@@ -55,6 +58,11 @@ def main():
     scene.luxel.texel_density, scene.luxel.threshold = args.density, args.threshold
     for name in args.without:
         bpy.data.objects.remove(bpy.data.objects[name])
+    if args.lower:
+        prefix, metres = args.lower[0], float(args.lower[1])
+        for obj in bpy.data.objects:
+            if obj.name.startswith(prefix):
+                obj.location.z -= metres
     if args.default_materials:
         for material in bpy.data.materials:
             for node in material.node_tree.nodes if material.node_tree else ():
@@ -109,7 +117,8 @@ def main():
               "cycles_supersample": args.supersample,
               "default_materials": args.default_materials,
               "cycles_seconds": cycles_seconds, "cycles_cached": cache.name,
-              "blend": args.blend, "without": args.without, "objects": rows,
+              "blend": args.blend, "without": args.without, "lower": args.lower,
+              "objects": rows,
               "warnings": list(export.warnings)}
     print(f"shown {100 * result['area_shown']:.1f} % of the rendered area; bake {seconds:.1f} s, "
           f"{stats.texels} texels, {stats.shots} shots; Cycles {cycles_seconds:.1f} s")
@@ -126,8 +135,10 @@ def _digest(bpy, args):
     writeback = importlib.import_module(runner.MODULE + ".addon.writeback")
     digest = hashlib.sha256(_blend_path(args).read_bytes())
     key = (args.samples, BOUNCES, args.default_materials, sorted(args.without))
-    # A plain bake keeps the key it had before supersampling was an option.
-    digest.update(repr(key if args.supersample == 1 else key + (args.supersample,)).encode())
+    # A plain bake keeps the key it had before supersampling and lowering were options.
+    key += (args.supersample,) if args.supersample != 1 else ()
+    key += (tuple(args.lower),) if args.lower else ()
+    digest.update(repr(key).encode())
     for mesh in sorted(bpy.data.meshes, key=lambda mesh: mesh.name):
         for name in (writeback.UV_MAP, writeback.SNAPSHOT_ATTRIBUTE,
                      writeback.SNAPSHOT_BACK_ATTRIBUTE):
