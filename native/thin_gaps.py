@@ -2,9 +2,8 @@
 spreads a shooter's light over the receivers' texel squares, and the band along a gap's open
 edge where its light leaks out; then the solver's thin-gap stage (close), which gives the
 receivers across a thin gap from a shooter all the gap's bounces at once, and what leaves the
-gap back to the room. Points in the
-shooter's plane are complex numbers: a few dozen operations per texel, where numpy's per-call
-cost would dominate."""
+gap back to the room. Points in the shooter's plane are complex numbers: a few dozen
+operations per texel, where numpy's per-call cost would dominate."""
 from dataclasses import dataclass, field
 import functools
 import math
@@ -342,11 +341,12 @@ def close(state, gaps, shooter):
     light shot at a point bounces between the two at that point until absorbed: a receiver
     of albedo rho_r over a shooter of albedo rho_s shows pi L / (1 - rho_r rho_s) and
     reflects none of it out but along the surface's open edges, where its reflection that
-    misses the shooter leaves the gap (edge_escape) as unshot light. What arrives is pi L times the share of its square under what
-    the shooter's texels cover (lit_by: the shooters of a surface tile it exactly, where
-    their quads, rectangles of their texels' area, leave holes along a slanted edge). What
-    it shows is the share of the middle of its square (SHOWN_SQUARE) under them, less the
-    band along the surface's open edges where the gap's light leaks out."""
+    misses the shooter leaves the gap (edge_escape) as unshot light. What arrives is pi L
+    times the share of its square under what the shooter's texels cover (lit_by: the
+    shooters of a surface tile it exactly, where their quads, rectangles of their texels'
+    area, leave holes along a slanted edge). What it shows is the share of the middle of its
+    square (SHOWN_SQUARE) under them, less the band along the surface's open edges where the
+    gap's light leaks out."""
     t, b, n = shooter.frame.T
     centre = shooter.centre
     plane = np.stack([t, b], axis=1)
