@@ -384,8 +384,8 @@ def close(state, gaps, shooter):
         chosen = near[inside]
         halves = square_halves(normal[inside], side[inside], t, b)
         points = u[inside] + 1j * v[inside]
-        under = np.array([share_under(square(point, half_t, half_b), lit)
-                          for point, half_t, half_b in zip(points, *halves)])
+        wholes = [square(point, half_t, half_b) for point, half_t, half_b in zip(points, *halves)]
+        under = np.array([share_under(whole, lit) for whole in wholes])
         middles = [square(point, SHOWN_SQUARE * half_t, SHOWN_SQUARE * half_b)
                    for point, half_t, half_b in zip(points, *halves)]
         shown_share = np.repeat([[share_under(middle, lit)] for middle in middles], 3, axis=1)
@@ -397,9 +397,7 @@ def close(state, gaps, shooter):
             # over the middle of the square chord by chord; and over the whole square, the
             # light its reflection sends out of the gap (edge_escape).
             cells, widths = band_cells()
-            for row, (point, half_t, half_b, middle, gap) in enumerate(
-                    zip(points, *halves, middles, height[inside])):
-                whole = square(point, half_t, half_b)
+            for row, (whole, middle, gap) in enumerate(zip(wholes, middles, height[inside])):
                 chords, whole_chords = (
                     sum(chord_lengths(outline, start, end, cells * gap)
                         for start, end in open_edges) * widths * gap / area(outline)
@@ -414,10 +412,9 @@ def close(state, gaps, shooter):
         _add_irradiance(state, page, texels.xy[chosen], shown)
         if escaping.any():
             unshot = _escaping_unshot(state, gaps, shooter, albedo * plates * escaping,
-                                      texel_area[:, 0], [square(point, half_t, half_b)
-                                                         for point, half_t, half_b
-                                                         in zip(points, *halves)], plane)
-            _add_unshot(state, page, texels.xy[chosen], unshot.astype(np.float32))
+                                      texel_area[:, 0], wholes, plane)
+            blend_points(state, page.unshot_only, texels.xy[chosen], _rgba(unshot),
+                         moderngl.FUNC_ADD)
             gaps.escaped += math.pi * (unshot * texel_area).sum(axis=0)
         gaps.shown_received += (shown * texel_area).sum(axis=0)
         gaps.shown_absorbed += ((1.0 - albedo) * shown * texel_area).sum(axis=0)
@@ -578,18 +575,17 @@ def receiving_texels(state, gaps):
     return gaps.receiving_texels
 
 
-def _add_unshot(state, page, texels, radiance):
-    """Add (N, 3) radiance to the unshot light of the texels (N, 2) of a page."""
-    values = np.zeros((len(texels), 4), dtype=np.float32)
-    values[:, :3] = radiance
-    blend_points(state, page.unshot_only, texels, values, moderngl.FUNC_ADD)
+def _rgba(rgb):
+    """(N, 4) float32 with alpha 0, which blending adds to nothing (a map's alpha holds the
+    texel size or an area)."""
+    values = np.zeros((len(rgb), 4), dtype=np.float32)
+    values[:, :3] = rgb
+    return values
 
 
 def _add_irradiance(state, page, texels, irradiance):
     """Add (N, 3) irradiance to the texels (N, 2) of a page, leaving their unshot light."""
-    values = np.zeros((len(texels), 4), dtype=np.float32)
-    values[:, :3] = irradiance
     with render_state(state.ctx, framebuffer=page.receivers,
                       color_mask=[(True,) * 4] + [(False,) * 4] * (
                           len(page.receivers.color_attachments) - 1)):
-        blend_points(state, page.receivers, texels, values, moderngl.FUNC_ADD)
+        blend_points(state, page.receivers, texels, _rgba(irradiance), moderngl.FUNC_ADD)
