@@ -48,6 +48,10 @@ HEMISPHERE_MAP_SCALE = 2
 # The automatic hemicube resolution's least and most: the old fixed default, and where its
 # visibility map (24 B a texel) and render time stay small beside the atlas's (README).
 AUTOMATIC_HEMICUBE = (128, 512)
+# The automatic hemicube resolves at least this many texels per metre at the typical
+# distance, however coarse the lightmap: at 4 texels/m a map whose texels spanned 12 cm there
+# let light past an office's furniture (BENCHMARKS.md, "The visibility map's resolution").
+LEAST_MAP_DENSITY = 10.0
 
 
 @dataclass
@@ -67,14 +71,15 @@ def bounds_of(scene):
 
 def hemicube_resolution(settings, scene):
     """Settings.hemicube_resolution, or where it is 0 (automatic) the least power of two
-    at which a texel half the scene's diagonal away from a shooter covers a texel of a face
-    at its middle (a face texel there spans 2 / resolution radians), kept within
-    AUTOMATIC_HEMICUBE (its memory and time, README)."""
+    at which a face texel at its middle (2 / resolution radians), half the scene's diagonal
+    away from a shooter, spans no more than a lightmap texel nor 1 / LEAST_MAP_DENSITY, kept
+    within AUTOMATIC_HEMICUBE (its memory and time, README)."""
     if settings.hemicube_resolution:
         return settings.hemicube_resolution
     lo, hi = scene.bounds()
     typical_distance = 0.5 * float(np.linalg.norm(hi - lo))
-    needed = max(2.0 * typical_distance * settings.texel_density, 1.0)
+    density = max(settings.texel_density, LEAST_MAP_DENSITY)
+    needed = max(2.0 * typical_distance * density, 1.0)
     least, most = AUTOMATIC_HEMICUBE
     return int(min(max(2 ** math.ceil(math.log2(needed)), least), most))
 

@@ -10,7 +10,7 @@ import pytest
 
 import analytic
 from native import PointLight, Settings, Solver
-from native.preprocess import AUTOMATIC_HEMICUBE, hemicube_resolution
+from native.preprocess import AUTOMATIC_HEMICUBE, LEAST_MAP_DENSITY, hemicube_resolution
 from native.samples import SceneBuilder
 
 
@@ -173,10 +173,11 @@ def test_lamp_a_fifth_of_a_millimetre_under_a_ceiling_lights_only_from_below(ctx
 
 @pytest.mark.parametrize("density", [5.0, 20.0, 60.0, 160.0, 400.0, 5000.0])
 @pytest.mark.parametrize("size", [0.5, 4.0, 30.0])
-def test_automatic_hemicube_resolution_follows_the_texel_density(density, size):
-    """By default (0) the hemicube face is the least power of two at which a texel (1 /
-    density wide) half the scene's diagonal away spans at least one face texel at the face's
-    middle (2 / resolution radians), within AUTOMATIC_HEMICUBE; a value set is kept."""
+def test_automatic_hemicube_resolution_follows_the_texel_density_and_its_floor(density, size):
+    """By default (0) the hemicube face is the least power of two at which a face texel at
+    the face's middle (2 / resolution radians) half the scene's diagonal away spans no more
+    than a lightmap texel (1 / density) nor 1 / LEAST_MAP_DENSITY, within
+    AUTOMATIC_HEMICUBE; a value set is kept."""
     assert Settings().hemicube_resolution == 0
     scene = (SceneBuilder().quad("floor", [(0, 0, 0), (size, 0, 0), (size, size, 0),
                                            (0, size, 0)])
@@ -185,10 +186,10 @@ def test_automatic_hemicube_resolution_follows_the_texel_density(density, size):
     resolution = hemicube_resolution(Settings(texel_density=density), scene)
     least, most = AUTOMATIC_HEMICUBE
     assert least <= resolution <= most and resolution & (resolution - 1) == 0
-    texel_angle = 1.0 / (density * distance)
-    if resolution < most:      # covers a face texel (at most, the budget decides)
-        assert texel_angle >= 2.0 / resolution
+    finest_angle = min(1.0 / density, 1.0 / LEAST_MAP_DENSITY) / distance
+    if resolution < most:      # resolves both (at most, the budget decides)
+        assert finest_angle >= 2.0 / resolution
     if resolution > least:     # and half the resolution would not have
-        assert texel_angle < 2.0 / (resolution // 2)
+        assert finest_angle < 2.0 / (resolution // 2)
     assert hemicube_resolution(Settings(texel_density=density, hemicube_resolution=96),
                                scene) == 96
