@@ -7,18 +7,20 @@ meshes: addon/reference.py, copies=True).
     python bench/bench_interior.py [--density D] [--threshold T] [--samples N]
                                    [--supersample S] [--default-materials]
                                    [--without NAME ...] [--lower PREFIX METRES]
+                                   [--hemicube N]
                                    [--blend NAME] [--json PATH]
 
 --default-materials gives every Principled BSDF Blender's default specular layer (Specular
 IOR Level 0.5, Roughness 0.5) in place of the file's matte ones; --without deletes the named
 objects (a light, say) first; --lower moves the objects whose names start with PREFIX down
-(the office's ceiling lights out of their thin gap, say). --samples is Cycles': with fewer, the small copies' means carry
-Cycles' own noise (BENCHMARKS.md, the realistic interior). --supersample S has Cycles bake
-S x S sub-texels a texel and compares with their mean over the texel's surface
+(the office's ceiling lights out of their thin gap, say); --hemicube sets the visibility
+map's side (0, the default: automatic). --samples is Cycles': with fewer, the small copies'
+means carry Cycles' own noise (BENCHMARKS.md, the realistic interior). --supersample S has
+Cycles bake S x S sub-texels a texel and compares with their mean over the texel's surface
 (reference.cycles_reference). --blend bakes another of sample_blends/ the same way (office,
-living, temple). Cycles' bakes are kept in
-bench/cache/, keyed by the file, the options that change what Cycles sees and the lightmap
-UV layout, so that a run whose layout did not change bakes Luxel only.
+living, temple). Cycles' bakes are kept in bench/cache/, keyed by the file, the options that
+change what Cycles sees and the lightmap UV layout, so that a run whose layout did not
+change bakes Luxel only.
 """
 import argparse
 import hashlib
@@ -47,6 +49,7 @@ def main():
     parser.add_argument("--default-materials", action="store_true")
     parser.add_argument("--without", action="append", default=[], metavar="NAME")
     parser.add_argument("--lower", nargs=2, metavar=("PREFIX", "METRES"))
+    parser.add_argument("--hemicube", type=int, default=0, metavar="N")
     parser.add_argument("--blend", default="interior", metavar="NAME")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
@@ -56,6 +59,7 @@ def main():
     bpy.ops.wm.open_mainfile(filepath=str(_blend_path(args)))
     scene = bpy.context.scene
     scene.luxel.texel_density, scene.luxel.threshold = args.density, args.threshold
+    scene.luxel.hemicube_resolution = args.hemicube
     for name in args.without:
         bpy.data.objects.remove(bpy.data.objects[name])
     if args.lower:
@@ -118,6 +122,7 @@ def main():
               "default_materials": args.default_materials,
               "cycles_seconds": cycles_seconds, "cycles_cached": cache.name,
               "blend": args.blend, "without": args.without, "lower": args.lower,
+              "hemicube": args.hemicube,
               "objects": rows,
               "warnings": list(export.warnings)}
     print(f"shown {100 * result['area_shown']:.1f} % of the rendered area; bake {seconds:.1f} s, "
