@@ -106,9 +106,30 @@ def area(polygon):
     return abs(signed_area(polygon))
 
 
+@dataclass
+class Outlines:
+    """Convex polygons (complex corners in one plane) that do not overlap, and their bounding
+    boxes, which spare share_under clipping a square against those far from it (a finely
+    tessellated ceiling's shooter covers hundreds of triangles)."""
+    polygons: list
+    low: np.ndarray    # (P, 2) least real and imaginary parts
+    high: np.ndarray   # (P, 2) greatest
+
+
+def outlines_of(polygons):
+    corners = [np.array([[p.real, p.imag] for p in polygon]) for polygon in polygons]
+    return Outlines(polygons, np.array([c.min(axis=0) for c in corners]).reshape(-1, 2),
+                    np.array([c.max(axis=0) for c in corners]).reshape(-1, 2))
+
+
 def share_under(texel_square, outlines):
-    """The share of a texel's square under the convex ``outlines``, which do not overlap."""
-    covered = sum(area(clipped(texel_square, outline)) for outline in outlines)
+    """The share of a texel's square under the Outlines."""
+    low = (min(p.real for p in texel_square), min(p.imag for p in texel_square))
+    high = (max(p.real for p in texel_square), max(p.imag for p in texel_square))
+    overlapping = np.nonzero((outlines.high[:, 0] >= low[0]) & (outlines.low[:, 0] <= high[0])
+                             & (outlines.high[:, 1] >= low[1])
+                             & (outlines.low[:, 1] <= high[1]))[0]
+    covered = sum(area(clipped(texel_square, outlines.polygons[i])) for i in overlapping)
     return min(covered / max(area(texel_square), 1e-30), 1.0)
 
 
@@ -358,7 +379,7 @@ def close(state, gaps, shooter):
     reach = float(np.linalg.norm(corners, axis=1).max())   # in_near_field()
     low, high = corners.min(axis=0), corners.max(axis=0)
     # As complex coordinates along t and b.
-    lit = [[complex(x, y) for x, y in polygon] for polygon in lit]
+    lit = outlines_of([[complex(x, y) for x, y in polygon] for polygon in lit])
     open_edges = []
     for segment in segments:   # each with the surface on its left
         start, end, inner = (complex(x, y) for x, y in (segment - centre) @ plane)
@@ -436,7 +457,7 @@ def _escaping_unshot(state, gaps, shooter, escaping, texel_area, squares, plane)
     low, high = every.min(axis=0), every.max(axis=0)
     near = np.nonzero((flat.max(axis=1) >= low).all(axis=1)
                       & (flat.min(axis=1) <= high).all(axis=1))[0]
-    outlines = [[complex(x, y) for x, y in flat[i]] for i in near]
+    outlines = outlines_of([[complex(x, y) for x, y in flat[i]] for i in near])
     beside_area = texel_area * (1.0 - np.array([share_under(outline, outlines)
                                                 for outline in squares]))
     if beside_area.sum() <= 1e-6 * texel_area.sum():

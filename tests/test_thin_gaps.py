@@ -9,17 +9,23 @@ import analytic
 import numpy as np
 
 from native.thin_gaps import (area, band_cells, chord_lengths, clipped, clipped_segment,
-                              edge_band, edge_deficit, edge_escape, share_under, signed_area,
-                              square)
+                              edge_band, edge_deficit, edge_escape, outlines_of, share_under,
+                              signed_area, square)
 
 UNIT_SQUARE = square(0.5 + 0.5j, 0.5, 0.5j)
 
 
 def test_a_triangle_over_half_a_square_covers_half():
-    assert share_under(UNIT_SQUARE, [[0j, 1 + 0j, 1 + 1j]]) == pytest.approx(0.5)
+    assert share_under(UNIT_SQUARE, outlines_of([[0j, 1 + 0j, 1 + 1j]])) == pytest.approx(0.5)
     # Wound the other way, and reaching past the square.
-    assert share_under(UNIT_SQUARE, [[-1 - 1j, 2 + 2j, 2 - 1j]]) == pytest.approx(0.5)
-    assert share_under(UNIT_SQUARE, [[2 + 0j, 3 + 0j, 3 + 1j]]) == 0.0
+    assert share_under(UNIT_SQUARE,
+                       outlines_of([[-1 - 1j, 2 + 2j, 2 - 1j]])) == pytest.approx(0.5)
+    assert share_under(UNIT_SQUARE, outlines_of([[2 + 0j, 3 + 0j, 3 + 1j]])) == 0.0
+    # Many triangles tiling a strip over the square's left half: each counts once.
+    columns = np.arange(-5.0, 0.5, 0.25)
+    strip = ([[complex(x, -1), complex(x + 0.25, -1), complex(x + 0.25, 2)] for x in columns]
+             + [[complex(x, -1), complex(x + 0.25, 2), complex(x, 2)] for x in columns])
+    assert share_under(UNIT_SQUARE, outlines_of(strip)) == pytest.approx(0.5)
 
 
 def test_the_signed_area_tells_the_winding():
