@@ -63,6 +63,12 @@ bool texel_sees(ivec3 texel, vec2 stored_texel, vec3 point, vec3 normal, float o
         && distance(origin + along * direction, point) <= tolerance.reach;
 }
 
+#ifdef VISIBILITY_OVER_TEXEL
+// Set by visible_from_eye(): how far in front of the receiver's plane lies the surface its
+// own map texel holds (where the receiver is hidden, what hides it).
+float blocker_height;
+#endif
+
 // How much of 'world' (a receiver with normal 'normal' on the surface numbered 'surface')
 // the eye sees: 1 when it is the nearest surface in its direction. The eye's map starts at
 // layer 'first_layer' (a batch of shooters keeps one map each, one after another).
@@ -118,6 +124,11 @@ float visible_from_eye(vec3 world, vec3 normal, float surface, int first_layer) 
         vec2 stored = texelFetch(u_visibility, ivec3(n.xy, first_layer + n.z), 0).rg;
         bool sees = texel_sees(n, stored, local, local_normal, own, own_surface, tolerance);
         if (k < 0) {
+#ifdef VISIBILITY_OVER_TEXEL
+            vec3 origin, direction;
+            texel_ray(n, origin, direction);
+            blocker_height = dot(local_normal, origin + stored.r * direction - local);
+#endif
             if (sees) return 1.0;
             if (own - stored.r > 2.0 * tolerance.reach) return 0.0;
         } else if (sees) {

@@ -255,6 +255,42 @@ def test_a_tube_thinner_than_a_texel_shows_the_mean_light_around_it(ctx, gl_clea
     assert shown == pytest.approx(albedo / math.pi * strength * mean_cosine, rel=0.04)
 
 
+def test_a_shadow_edge_along_a_row_of_texels_shows_their_lit_share(ctx, gl_clean):
+    """A board high over a floor, the sun straight down: its shadow's edge runs along a column
+    of the floor's texels, 0.3 of a texel from their centres, so 0.2 of each is lit. A
+    texel shows the mean over its square, as Cycles bakes it: every inside texel within 0.1
+    of its lit share (by its square's overlap with the light, independently of the solver).
+    At its sample point alone the whole column came out dark."""
+    albedo, strength, density = 0.5, 3.0, 10.0
+    texel = 1.0 / density
+
+    def floor_under_board(edge):
+        builder = SceneBuilder()
+        builder.quad("floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], (albedo,) * 3)
+        # Far wider than the floor, facing down, and not baked: the atlas stays the floor's.
+        builder.quad("board", [(-3, -3, 0.5), (-3, 3, 0.5), (edge, 3, 0.5), (edge, -3, 0.5)],
+                     (albedo,) * 3, two_sided=False, receive=False)
+        scene = builder.build([SunLight(direction=(0.0, 0.0, -1.0), strength=strength)])
+        images, samples, _, _, _ = solve(scene, ctx, texel_density=density, max_shots=1)
+        inside = np.concatenate([s["occupied"][...] & (s["coverage"] > 0.99) for s in samples])
+        values = np.concatenate([image[..., 0] for image in images])[inside]
+        positions = np.concatenate([s["position"] for s in samples])[inside]
+        return values, positions
+
+    _, positions = floor_under_board(edge=-5.0)
+    columns = np.unique(np.round(positions[:, 0] / texel - 0.5))
+    # The floor's square chart lies along its sides: texel centres sit on a grid in x.
+    assert len(columns) <= 2 * density + 1
+    middle = (columns[np.argmin(np.abs(columns))] + 0.5) * texel
+    edge = middle + 0.3 * texel
+    values, positions = floor_under_board(edge=edge)
+    lit_share = np.clip((positions[:, 0] + 0.5 * texel - edge) / texel, 0.0, 1.0)
+    shown = values / (albedo / math.pi * strength)
+    crossing = (lit_share > 0.0) & (lit_share < 1.0)
+    assert crossing.sum() >= 10
+    np.testing.assert_allclose(shown, lit_share, atol=0.1)
+
+
 def test_a_triangle_too_small_to_chart_is_listed_and_the_rest_bakes(ctx, gl_clean):
     """A 0.1 micrometre triangle in a 2 km scene is below what xatlas charts even in its finest
     units: it is listed in atlas.unpacked (the extension warns, naming its object), still
