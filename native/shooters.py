@@ -188,7 +188,7 @@ def make_shooter(state, caches, region, maps, charts):
         # gap's light does not bounce off them.
         albedo=((reflectance[members] * weights).sum(axis=0) / total_area if surface > 0
                 else np.zeros(3)),
-        surface=surface)
+        surface=surface, emits=bool(_emitting(state, page, texels + origin).any()))
 
 
 def _glossy_colour(state, page, texels, reflectance):
@@ -196,12 +196,18 @@ def _glossy_colour(state, page, texels, reflectance):
     beyond the diffuse albedo; none where emission not yet shot is in its unshot light
     (emitters shoot as if diffuse)."""
     glossy = (reflectance - page.albedo[texels[:, 1], texels[:, 0]]).clip(0.0, None)
-    emitting, power = page.emission_left
-    if len(emitting):
-        flat = texels[:, 1].astype(np.int64) * state.packed.width + texels[:, 0]
-        where = np.searchsorted(emitting, flat).clip(0, len(emitting) - 1)
-        glossy[(emitting[where] == flat) & (power[where].max(axis=1) > 0.0)] = 0.0
+    glossy[_emitting(state, page, texels)] = 0.0
     return glossy
+
+
+def _emitting(state, page, texels):
+    """(N,) bool: which of a page's ``texels`` hold emission not yet shot."""
+    emitting, power = page.emission_left
+    if not len(emitting):
+        return np.zeros(len(texels), dtype=bool)
+    flat = texels[:, 1].astype(np.int64) * state.packed.width + texels[:, 0]
+    where = np.searchsorted(emitting, flat).clip(0, len(emitting) - 1)
+    return (emitting[where] == flat) & (power[where].max(axis=1) > 0.0)
 
 
 def _lies_along(chart, normal):

@@ -180,6 +180,8 @@ class Shooter:
     albedo: np.ndarray          # its texels' mean albedo: what a thin gap's far side bounces
     surface: int                # the surface number of its strongest texel (0: it does
                                 # not receive)
+    emits: bool = False         # it shoots emission: its shadows are sharp
+                                # (receiver_common.glsl visible_over_texel)
     extent: tuple = None        # its surface along its frame's t and b (thin_gaps.extent)
                                 # when a receiver may face it across a thin gap, else None
 

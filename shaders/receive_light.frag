@@ -2,10 +2,6 @@
 // Receiver update for a point, spot or sun light (Blender's conventions, as Cycles renders
 // them): irradiance I cos / d^2 from a point of intensity I, masked to a spot's cone, or S cos
 // from a sun of strength S.
-// A light's shadow is sharp: a texel takes the share of its square in the light
-// (receiver_common.glsl visible_over_texel). A patch (receive_patch.frag), whose shadows
-// are soft, tests at the sample point: its pass, the bake's cost, would test four times.
-#define VISIBILITY_OVER_TEXEL
 #include "projection.glsl"
 #include "visibility_test.glsl"
 #include "receiver_common.glsl"
@@ -48,5 +44,8 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
         }
         irradiance = u_light_value * mask * cos_r / dist2;
     }
-    return irradiance * visible_over_texel(point, normal, 0);
+    // A light's shadow is sharp: over the texel's square. Not with a hemisphere projection's
+    // map, whose two halves meet at the light's horizon, where a point behind a wall saw the
+    // light through their seam.
+    return irradiance * visible_over_texel(point, normal, 0, u_hemisphere == 0);
 }

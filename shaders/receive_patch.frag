@@ -19,6 +19,10 @@ uniform vec3 u_centres[MOST_SHOOTERS];
 uniform vec3 u_radiances[MOST_SHOOTERS];  // unshot radiance leaving the front face (shooters
                                           // are one-sided: a two-sided emitter shoots from a
                                           // mirrored copy)
+uniform int u_emits[MOST_SHOOTERS];       // 1: the shooter shoots emission, whose shadows
+                                          // are sharp: receivers take visibility over their
+                                          // texel's square (visible_over_texel); a reflected
+                                          // shot's soft shadows at their sample point
 uniform vec4 u_surface_extents[MOST_SHOOTERS];  // u min, u max, v min, v max of the shooter's
                                                 // surface along its frame's tangent and
                                                 // bitangent, from its centre
@@ -140,7 +144,7 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     if (height <= u_epsilon || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
     // Across a thin gap the solver gives the light (across_thin_gap()).
     if (near_side > 0.0 && across_thin_gap(from_shooter, height, normal, near_side)) return vec3(0.0);
-    float visible = visible_from_eye(point, normal, receiver_surface, 6 * shooter);
+    float visible = visible_over_texel(point, normal, 6 * shooter, u_emits[shooter] != 0);
     if (visible <= 0.0) return vec3(0.0);
     return PI * shot_radiance * lobe_factor(point) * polygon_form_factor(point, normal)
         * visible;

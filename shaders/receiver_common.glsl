@@ -17,19 +17,21 @@ layout(location = 2) out vec4 out_incoming;    // added to the unshot light's di
 const float PI = 3.14159265358979;
 
 float receiver_surface;   // the number of the texel's surface, for visible_from_eye()
-#ifdef VISIBILITY_OVER_TEXEL   // where a pass takes visibility over a texel's square
 // The receiving texel's square (its steps to the next texels on the page), over which a
 // gather at its sample point takes visibility; zero where it gathers at several points
 // (subdivided, or next to the shooter) or at a chart's border.
 vec3 texel_across = vec3(0.0), texel_along = vec3(0.0);
-// A texel's area within this share of its square's: its whole square is surface.
+// A texel's area within this share of its square's: its whole square is surface; and its
+// steps to its neighbours within this sine of its plane: the square is flat.
 const float COVERED = 0.02;
+const float FLAT_SINE = 0.01;
 
 // The texel's steps to the next texels on the page along its rows and columns (from a
 // neighbour on its surface at either side), where its square is all surface: its area is
 // the square's. Where it is not (a chart's border), points across the square lay off the
 // surface (beside a lamp's pole, in the air) and saw what the surface does not.
-bool steps_inside(ivec2 texel, vec4 position, float surface, out vec3 across, out vec3 along) {
+bool steps_inside(ivec2 texel, vec4 position, vec3 normal, float surface, out vec3 across,
+                  out vec3 along) {
     ivec2 size = textureSize(u_position, 0);
     vec3 steps[2];
     for (int axis = 0; axis < 2; ++axis) {
@@ -47,7 +49,9 @@ bool steps_inside(ivec2 texel, vec4 position, float surface, out vec3 across, ou
     across = steps[0];
     along = steps[1];
     float square = length(cross(across, along));
-    return square > 0.0 && abs(position.w - square) <= COVERED * square;
+    return square > 0.0 && abs(position.w - square) <= COVERED * square
+        && abs(dot(across, normal)) <= FLAT_SINE * length(across)
+        && abs(dot(along, normal)) <= FLAT_SINE * length(along);
 }
 
 // Four points of a texel's square on a rotated grid: a shadow edge along either of its sides
@@ -55,29 +59,35 @@ bool steps_inside(ivec2 texel, vec4 position, float surface, out vec3 across, ou
 const vec2 ACROSS_TEXEL[4] = vec2[4](vec2(-0.125, -0.375), vec2(0.375, -0.125),
                                      vec2(0.125, 0.375), vec2(-0.375, 0.125));
 
-// How much of the receiving texel around 'point' the eye sees (visible_from_eye): the mean
-// over ACROSS_TEXEL of its square (texel_across, texel_along), not its sample point's alone.
-// Cycles' bake of a texel, and what the texel shows, is the mean over its surface: a sharp
-// shadow's edge along a row of texels (a board's, a sill's under the sun) left the whole row
-// in shadow, or the whole row lit, where it is partly lit. Points of the square see more
-// than a hidden sample point only past a blocker two texels or more in front of it: a wall
-// standing on the surface crosses the square, and the light on its one side must not reach
-// the other. Not with a hemisphere projection's map: its two halves meet at the light's
-// horizon, where a point behind a wall saw the light through their seam.
-float visible_over_texel(vec3 point, vec3 normal, int first_layer) {
-    float centre = visible_from_eye(point, normal, receiver_surface, first_layer);
-    if (texel_across == vec3(0.0) || u_hemisphere != 0) return centre;
-    bool clear = centre > 0.0
-        || blocker_height > 2.0 * max(length(texel_across), length(texel_along));
-    float seen = 0.0;
-    for (int k = 0; k < 4; ++k) {
-        vec2 at = ACROSS_TEXEL[k];
-        seen += visible_from_eye(point + at.x * texel_across + at.y * texel_along, normal,
-                                 receiver_surface, first_layer);
+// How much of the receiving texel around 'point' the eye sees (visible_from_eye): with
+// 'over_square', the mean over ACROSS_TEXEL of its square (texel_across, texel_along), not
+// its sample point's alone. Cycles' bake of a texel, and what the texel shows, is the mean
+// over its surface: a sharp shadow's edge along a row of texels (a board's, a sill's under
+// the sun) left the whole row in shadow, or the whole row lit, where it is partly lit.
+// Points of the square see more than a hidden sample point only past a blocker more than
+// a texel in front of it: a wall standing on the surface crosses the square, and the light
+// on its one side must not reach the other. One loop and one call site of
+// visible_from_eye(), for llvmpipe's sake.
+float visible_over_texel(vec3 point, vec3 normal, int first_layer, bool over_square) {
+    int last = over_square && texel_across != vec3(0.0) ? 4 : 0;
+    float near = max(length(texel_across), length(texel_along));
+    float centre = 0.0, seen = 0.0;
+    for (int k = -1; k < last; ++k) {
+        vec2 at = k < 0 ? vec2(0.0) : ACROSS_TEXEL[k];
+        vec3 at_point = point + at.x * texel_across + at.y * texel_along;
+        float visible = visible_from_eye(at_point, normal, receiver_surface, first_layer);
+        if (k < 0) {
+            centre = visible;
+            if (last > 0 && centre <= 0.0 && blocker_height(point, normal) <= near) return 0.0;
+        } else {
+            // Hidden by a surface within a texel of it: one the receiver meets (seen at a
+            // grazing angle across a corner), not a shadow the sample point misses.
+            if (visible < centre && blocker_height(at_point, normal) <= near) visible = centre;
+            seen += visible;
+        }
     }
-    return clear ? seen / 4.0 : 0.0;
+    return last > 0 ? seen / float(last) : centre;
 }
-#endif
 
 // The irradiance at 'point'; 'near_side' > 0: the point is the sample point of a texel of that
 // side in the shooter's near field.
@@ -117,10 +127,8 @@ void main() {
         decode_bend(normal, stored_normal.w, mean_normal, bend_axis);
         turn = sqrt(max(1.0 - spread * spread, 0.0)) * bend_axis;
     }
-#ifdef VISIBILITY_OVER_TEXEL
     vec3 across, along;
-    bool inside = steps_inside(texel, position, receiver_surface, across, along);
-#endif
+    bool inside = steps_inside(texel, position, normal, receiver_surface, across, along);
     vec3 tangent = tangent_of(normal);
     vec3 bitangent = cross(normal, tangent);
     vec3 irradiance = vec3(0.0);
@@ -136,11 +144,9 @@ void main() {
         // light (receive_patch.frag, near_side).
         float near_side = in_near_field(position.xyz, side) ? side : 0.0;
         int split = near_side > 0.0 ? 1 : level_split;
-#ifdef VISIBILITY_OVER_TEXEL
         bool over_texel = inside && near_side == 0.0 && split == 1;
         texel_across = over_texel ? across : vec3(0.0);
         texel_along = over_texel ? along : vec3(0.0);
-#endif
         int normals = spread < 1.0 && near_side == 0.0 ? 2 : 1;
         vec3 gathered = vec3(0.0);
         // One loop and one call site: a second inlined copy of irradiance_at() cost llvmpipe

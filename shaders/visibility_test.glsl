@@ -63,11 +63,10 @@ bool texel_sees(ivec3 texel, vec2 stored_texel, vec3 point, vec3 normal, float o
         && distance(origin + along * direction, point) <= tolerance.reach;
 }
 
-#ifdef VISIBILITY_OVER_TEXEL
-// Set by visible_from_eye(): how far in front of the receiver's plane lies the surface its
-// own map texel holds (where the receiver is hidden, what hides it).
-float blocker_height;
-#endif
+// The last visible_from_eye()'s own map texel and the distance it holds, for
+// blocker_height().
+ivec3 last_map_texel;
+float last_map_distance;
 
 // How much of 'world' (a receiver with normal 'normal' on the surface numbered 'surface')
 // the eye sees: 1 when it is the nearest surface in its direction. The eye's map starts at
@@ -124,11 +123,8 @@ float visible_from_eye(vec3 world, vec3 normal, float surface, int first_layer) 
         vec2 stored = texelFetch(u_visibility, ivec3(n.xy, first_layer + n.z), 0).rg;
         bool sees = texel_sees(n, stored, local, local_normal, own, own_surface, tolerance);
         if (k < 0) {
-#ifdef VISIBILITY_OVER_TEXEL
-            vec3 origin, direction;
-            texel_ray(n, origin, direction);
-            blocker_height = dot(local_normal, origin + stored.r * direction - local);
-#endif
+            last_map_texel = n;
+            last_map_distance = stored.r;
             if (sees) return 1.0;
             if (own - stored.r > 2.0 * tolerance.reach) return 0.0;
         } else if (sees) {
@@ -136,4 +132,13 @@ float visible_from_eye(vec3 world, vec3 normal, float surface, int first_layer) 
         }
     }
     return seen / 9.0;
+}
+
+// How far in front of the plane of a receiver ('world', 'normal') lies the surface that
+// visible_from_eye() just found in its own map texel: where it is hidden, what hides it.
+float blocker_height(vec3 world, vec3 normal) {
+    vec3 origin, direction;
+    texel_ray(last_map_texel, origin, direction);
+    return dot(transpose(u_frame) * normal,
+               origin + last_map_distance * direction - to_local(world));
 }

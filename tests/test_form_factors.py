@@ -268,12 +268,12 @@ def penumbra_scene():
     return builder.build()
 
 
-def penumbra_bracket(samples, density, albedo=0.5):
+def penumbra_bracket(samples, density, albedo=0.5, slack_scale=1.0):
     """Per receiver texel: exact first-bounce value and the bracket it must lie in. From a
     receiver point at x0 the emitter is visible for x > 1 - x0 exactly; shooting from texel
-    centres moves that edge by at most half an emitter texel."""
+    centres moves that edge by at most half an emitter texel (times ``slack_scale``)."""
     rows, cols = receiver_texels(samples)
-    slack = 0.5 / density + 0.01
+    slack = slack_scale * (0.5 / density + 0.01)
     exact, low, high = [], [], []
     for x, y, _ in samples["position"][rows, cols]:
         edge = 1.0 - x
@@ -285,26 +285,27 @@ def penumbra_bracket(samples, density, albedo=0.5):
 
 def test_penumbra_of_an_occluding_plate_is_bracketed_by_exact_visibility(ctx, gl_clean,
                                                                         projection):
-    """Every receiver texel lies within the bracket of exact visibility. The per-vertex
+    """Every receiver texel lies within the bracket of exact visibility, and with cube faces
+    or the nonlinear map within 0.5 % of it (RMS over the mean). The per-vertex
     hemisphere projection draws the plate's long edges straight where they are arcs (the
-    paper's Figure 5); its remedy, subdivision, tessellates the casters: then its error may
-    be up to twice the hemicube's."""
+    paper's Figure 5); its remedy, subdivision, tessellates the casters: then it lies within
+    a bracket twice as wide (measured: 74 of 256 texels outside the plain one by up to 0.9 %
+    of the unshadowed value, none outside the doubled one)."""
     density = 16
     settings = dict(texel_density=density, shoot_level=0, hemicube_resolution=512,
                     threshold=0.0, max_shots=16 * 16)
     subdivision = dict(subdivision="ADAPTIVE", subdivision_level=2)
     image, samples, _ = bake(penumbra_scene(), ctx, projection, **settings,
                              **(subdivision if projection == "HEMISPHERE" else {}))
-    texels, exact, low, high = penumbra_bracket(samples, density)
+    texels, exact, low, high = penumbra_bracket(
+        samples, density, slack_scale=2.0 if projection == "HEMISPHERE" else 1.0)
     value = image[texels][:, 0]
     assert len(value) == 16 * 16
+    assert np.all((low - 1e-6 <= value) & (value <= high + 1e-6))
     if projection != "HEMISPHERE":
-        assert np.all((low - 1e-6 <= value) & (value <= high + 1e-6))
-        return
-    cube, cube_samples, _ = bake(penumbra_scene(), ctx, "HEMICUBE", **settings)
-    cube_error = np.sqrt(np.mean((cube[receiver_texels(cube_samples)][:, 0] - exact) ** 2))
-    error = np.sqrt(np.mean((value - exact) ** 2))
-    assert error <= 2.0 * cube_error
+        # Each emitter texel's shadow edge, taken over the receiving texels' squares, adds up
+        # to the penumbra: at their sample points the error was 5.4 % (cube) and 1.8 %.
+        assert np.sqrt(np.mean((value - exact) ** 2)) < 0.005 * exact.mean()
 
 
 def test_curved_surface_first_bounce_matches_lambert_on_every_facet(ctx, gl_clean, projection):
