@@ -272,7 +272,7 @@ def test_a_shadow_edge_along_a_row_of_texels_shows_their_lit_share(ctx, gl_clean
                      (albedo,) * 3, two_sided=False, receive=False)
         scene = builder.build([SunLight(direction=(0.0, 0.0, -1.0), strength=strength)])
         images, samples, _, _, _ = solve(scene, ctx, texel_density=density, max_shots=1)
-        inside = np.concatenate([s["occupied"][...] & (s["coverage"] > 0.99) for s in samples])
+        inside = np.concatenate([s["occupied"] & (s["coverage"] > 0.99) for s in samples])
         values = np.concatenate([image[..., 0] for image in images])[inside]
         positions = np.concatenate([s["position"] for s in samples])[inside]
         return values, positions
