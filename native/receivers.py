@@ -149,6 +149,7 @@ def set_patch_uniforms(state, shooters, views):
     _set_array(program, "u_centres", [tuple(shooter.centre) for shooter in shooters])
     _set_array(program, "u_radiances", [tuple(shooter.radiance) for shooter in shooters])
     _set_array(program, "u_emits", [int(shooter.emits) for shooter in shooters])
+    set_uniform(program, "u_any_emits", int(any(shooter.emits for shooter in shooters)))
     lobe_uniforms = [shooter.lobe.uniforms() for shooter in shooters]
     _set_array(program, "u_lobes", [lobe for lobe, _ in lobe_uniforms])
     _set_array(program, "u_lobe_shares", [share for _, share in lobe_uniforms])

@@ -21,6 +21,8 @@ vec3 travel_direction(vec3 point) {
 }
 
 int shooter_count() { return 1; }   // one light per pass
+// Not with a hemisphere projection's map (irradiance_at()).
+bool pass_takes_squares() { return u_hemisphere == 0; }
 
 bool select_shooter(int index) { return true; }
 

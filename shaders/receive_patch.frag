@@ -23,6 +23,7 @@ uniform int u_emits[MOST_SHOOTERS];       // 1: the shooter shoots emission, who
                                           // are sharp: receivers take visibility over their
                                           // texel's square (visible_over_texel); a reflected
                                           // shot's soft shadows at their sample point
+uniform int u_any_emits;                  // 1: some shooter of the pass emits
 uniform vec4 u_surface_extents[MOST_SHOOTERS];  // u min, u max, v min, v max of the shooter's
                                                 // surface along its frame's tangent and
                                                 // bitangent, from its centre
@@ -48,6 +49,8 @@ vec4 shot_lobe_share;
 
 // A batch of one is known here: the pass then compiles without the loop over shooters.
 int shooter_count() { return MOST_SHOOTERS == 1 ? 1 : u_shooter_count; }
+
+bool pass_takes_squares() { return u_any_emits != 0; }
 
 // The shooters of the pass whose light can reach the drawn tile, a bit each
 // (receiver_boxes.vert).

@@ -98,6 +98,9 @@ vec3 travel_direction(vec3 point);
 bool in_near_field(vec3 point, float texel_size);
 // How many shooters the pass gathers from.
 int shooter_count();
+// Whether a shooter of the pass takes visibility over its receivers' squares
+// (visible_over_texel): only then is each texel's square measured.
+bool pass_takes_squares();
 // Make shooter 'index' the current one for irradiance_at() and in_near_field(); false where
 // the drawn tile cannot receive it (v_shooters).
 bool select_shooter(int index);
@@ -127,8 +130,9 @@ void main() {
         decode_bend(normal, stored_normal.w, mean_normal, bend_axis);
         turn = sqrt(max(1.0 - spread * spread, 0.0)) * bend_axis;
     }
-    vec3 across, along;
-    bool inside = steps_inside(texel, position, normal, receiver_surface, across, along);
+    vec3 across = vec3(0.0), along = vec3(0.0);
+    bool inside = pass_takes_squares()
+        && steps_inside(texel, position, normal, receiver_surface, across, along);
     vec3 tangent = tangent_of(normal);
     vec3 bitangent = cross(normal, tangent);
     vec3 irradiance = vec3(0.0);
