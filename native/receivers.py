@@ -15,7 +15,6 @@ import numpy as np
 from .geometry import frame_around
 from .gpu import buffer_content, render_state, set_uniform
 from .scene import SpotLight, SunLight
-from .shooters import SHOOTER_CELLS
 from .state import NO_SURFACE, View, blend_points, decode_normals, read_map
 
 # u_light_kind of receive_light.frag.
@@ -149,13 +148,6 @@ def set_patch_uniforms(state, shooters, views):
                                     for corner in shooter.quad])
     _set_array(program, "u_centres", [tuple(shooter.centre) for shooter in shooters])
     _set_array(program, "u_radiances", [tuple(shooter.radiance) for shooter in shooters])
-    cells = SHOOTER_CELLS * SHOOTER_CELLS
-    _set_array(program, "u_cell_radiances", [
-        tuple(cell) for shooter in shooters
-        for cell in (shooter.cell_radiance if shooter.cell_radiance is not None
-                     else [shooter.radiance] * cells)])
-    _set_array(program, "u_uneven", [int(shooter.cell_radiance is not None)
-                                      for shooter in shooters])
     _set_array(program, "u_emits", [int(shooter.emits) for shooter in shooters])
     set_uniform(program, "u_any_emits", int(any(shooter.emits for shooter in shooters)))
     lobe_uniforms = [shooter.lobe.uniforms() for shooter in shooters]
