@@ -21,7 +21,9 @@ vec3 travel_direction(vec3 point) {
 }
 
 int shooter_count() { return 1; }   // one light per pass
-// Not with a hemisphere projection's map (irradiance_at()).
+// A light's shadow is sharp: over the texel's square. Not with a hemisphere projection's
+// map, whose two halves meet at the light's horizon, where a point behind a wall saw the
+// light through their seam.
 bool pass_takes_squares() { return u_hemisphere == 0; }
 
 bool select_shooter(int index) { return true; }
@@ -46,8 +48,5 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
         }
         irradiance = u_light_value * mask * cos_r / dist2;
     }
-    // A light's shadow is sharp: over the texel's square. Not with a hemisphere projection's
-    // map, whose two halves meet at the light's horizon, where a point behind a wall saw the
-    // light through their seam.
-    return irradiance * visible_over_texel(point, normal, 0, u_hemisphere == 0);
+    return irradiance * visible_over_texel(point, normal, 0, pass_takes_squares());
 }
