@@ -10,6 +10,7 @@ import numpy as np
 from .errors import SettingsError
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
+from .shooters import SHOOTER_CELLS
 from .state import MAP_UNITS, Bounds, Energy, Page, decode_normals, read_map
 
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
@@ -148,7 +149,8 @@ def create_programs(gl, settings, *, per_face, receiver_batch, glossy_lobes):
         "nonlinear": gl.program("visibility.vert", "visibility_nonlinear.frag",
                                 "visibility_nonlinear.geom"),
         "patch": gl.program("receiver_boxes.vert", "receive_patch.frag",
-                            defines={"MOST_SHOOTERS": receiver_batch, **lobes}),
+                            defines={"MOST_SHOOTERS": receiver_batch,
+                                     "SHOOTER_CELLS": SHOOTER_CELLS, **lobes}),
         "light": gl.program("receiver_boxes.vert", "receive_light.frag", defines=lobes),
         "take": gl.program("take_unshot.vert", "take_unshot.frag"),
     }

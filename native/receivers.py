@@ -148,6 +148,8 @@ def set_patch_uniforms(state, shooters, views):
                                     for corner in shooter.quad])
     _set_array(program, "u_centres", [tuple(shooter.centre) for shooter in shooters])
     _set_array(program, "u_radiances", [tuple(shooter.radiance) for shooter in shooters])
+    _set_array(program, "u_cell_radiances", [tuple(cell) for shooter in shooters
+                                             for cell in shooter.cell_radiance])
     _set_array(program, "u_emits", [int(shooter.emits) for shooter in shooters])
     set_uniform(program, "u_any_emits", int(any(shooter.emits for shooter in shooters)))
     lobe_uniforms = [shooter.lobe.uniforms() for shooter in shooters]

@@ -172,6 +172,8 @@ class Shooter:
     quad: list                  # 4 world-space corners, counter-clockwise seen from the
                                 # front (about frame's n: receive_patch.frag)
     radiance: np.ndarray        # leaving its front (every shooter is one-sided)
+    cell_radiance: np.ndarray   # (cells, 3): its mean over each cell of its quad
+                                # (shooters.SHOOTER_CELLS)
     unshot: np.ndarray          # (N, 4) float32: what this shot takes from each texel
     incoming: np.ndarray        # (N, 4) float32: and from its incoming directions (None
                                 # without lobes)

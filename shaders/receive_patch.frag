@@ -2,7 +2,8 @@
 // Receiver update for a batch of shooting patches, gathered one after another per texel in
 // one pass: every receiving texel visible from a shooter gains irradiance pi * L * F, with F
 // the exact point-to-polygon form factor (Lambert's formula) of the shooter's quad clipped to
-// the receiver's horizon: bounded however close they are. Each shooter's visibility map is
+// the receiver's horizon: bounded however close they are; near the shooter, the sum of that
+// over the quad's cells, each at its own radiance L. Each shooter's visibility map is
 // the six layers from 6 x its index. The share of a shooter's light its glossy layers reflect
 // leaves in a lobe about a direction (lobes.py), the rest as from a diffuse surface.
 #define VIEW_PER_SHOOTER
@@ -19,6 +20,9 @@ uniform vec3 u_centres[MOST_SHOOTERS];
 uniform vec3 u_radiances[MOST_SHOOTERS];  // unshot radiance leaving the front face (shooters
                                           // are one-sided: a two-sided emitter shoots from a
                                           // mirrored copy)
+// SHOOTER_CELLS (defined where the program is made) x as many cells of each quad, row by
+// row from its first corner along its first edge, each at its own texels' radiance.
+uniform vec3 u_cell_radiances[SHOOTER_CELLS * SHOOTER_CELLS * MOST_SHOOTERS];
 uniform int u_emits[MOST_SHOOTERS];       // 1: the shooter shoots emission, whose shadows
                                           // are sharp: receivers take visibility over their
                                           // texel's square (visible_over_texel); a reflected
@@ -71,11 +75,15 @@ bool select_shooter(int index) {
     return true;
 }
 
-float polygon_form_factor(vec3 p, vec3 n) {
+// Within this many quad diagonals of a shooter's centre a receiver gathers its cells one by
+// one; farther, where the form factor hardly varies across the quad, its mean radiance.
+const float CELL_REACH = 2.0;
+
+float polygon_form_factor(vec3 quad[4], vec3 p, vec3 n) {
     vec3 poly[5];
     int count = 0;
     for (int i = 0; i < 4; ++i) {
-        vec3 a = shot_quad[i] - p, b = shot_quad[(i + 1) % 4] - p;
+        vec3 a = quad[i] - p, b = quad[(i + 1) % 4] - p;
         float da = dot(a, n), db = dot(b, n);
         if (da >= 0.0) poly[count++] = a;
         if ((da >= 0.0) != (db >= 0.0)) poly[count++] = a + (b - a) * (da / (da - db));
@@ -98,6 +106,31 @@ float polygon_form_factor(vec3 p, vec3 n) {
     // surface's other side (an emitter's back-face copy, right behind it) can lie above the
     // frame's plane yet behind the quad, and at a millimetre from it got almost all of it.
     return clamp(-sum / (2.0 * PI), 0.0, 1.0);
+}
+
+vec3 quad_point(float s, float t) {
+    return mix(mix(shot_quad[0], shot_quad[1], s), mix(shot_quad[3], shot_quad[2], s), t);
+}
+
+// The shooter's radiance times the form factor: near the shooter, the sum over its cells (a
+// hot spot in the block's middle lights what faces it more than the block's mean would);
+// farther, its mean radiance over the whole quad. One call site of polygon_form_factor().
+vec3 radiance_form_factor(vec3 p, vec3 n) {
+    bool near = distance(p, shot_centre) < CELL_REACH * length(shot_quad[2] - shot_quad[0]);
+    int cells = near ? SHOOTER_CELLS * SHOOTER_CELLS : 1;
+    // A cell's side in the quad's parameters: the whole quad's where far.
+    float side = near ? 1.0 / float(SHOOTER_CELLS) : 1.0;
+    vec3 sum = vec3(0.0);
+    for (int k = 0; k < cells; ++k) {
+        vec2 low = vec2(k % SHOOTER_CELLS, k / SHOOTER_CELLS) * side;
+        vec3 quad[4] = vec3[4](quad_point(low.x, low.y), quad_point(low.x + side, low.y),
+                               quad_point(low.x + side, low.y + side),
+                               quad_point(low.x, low.y + side));
+        vec3 radiance = near ? u_cell_radiances[shooter * SHOOTER_CELLS * SHOOTER_CELLS + k]
+                             : shot_radiance;
+        sum += radiance * polygon_form_factor(quad, p, n);
+    }
+    return sum;
 }
 
 vec3 travel_direction(vec3 point) { return normalize(point - shot_centre); }
@@ -149,6 +182,5 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     if (near_side > 0.0 && across_thin_gap(from_shooter, height, normal, near_side)) return vec3(0.0);
     float visible = visible_over_texel(point, normal, 6 * shooter, u_emits[shooter] != 0);
     if (visible <= 0.0) return vec3(0.0);
-    return PI * shot_radiance * lobe_factor(point) * polygon_form_factor(point, normal)
-        * visible;
+    return PI * lobe_factor(point) * radiance_form_factor(point, normal) * visible;
 }
