@@ -85,10 +85,6 @@ class Lobe:
     share: np.ndarray       # (3,) the glossy share of the radiance it shoots
     scale: float            # the lobe's radiance along its axis over the radiance shot
 
-    def uniforms(self):
-        """u_lobes' and u_lobe_shares' values."""
-        return (*self.axis, self.exponent), (*self.share, self.scale)
-
 
 def diffuse():
     """The lobe of a shooter without glossy light: everything leaves as if diffuse."""
@@ -163,6 +159,28 @@ def reflect(normal, incoming, taken, reflectance, glossy, roughness, *, fresnel)
     return Reflection(power=power, lobe=Lobe(
         axis=axis, exponent=exponent, share=lobe_share,
         scale=math.pi / lobe_integral(float(axis @ normal), exponent)))
+
+
+def cell_lobes(lobe, normal, incoming):
+    """(cells, 4) per cell of a shooter of ``normal`` its lobe's axis (xyz) and scale (w):
+    about the mirror direction of the light its texels took, ``incoming`` (cells, 4) their
+    directions summed as reflect() reads them (zero where the scene keeps none), with the
+    shooter's ``lobe``'s exponent. A block's one axis, the mirror of its texels' mean, sent a
+    lamp's light off a floor block the same way from its near and its far side, where each
+    side mirrors the lamp its own way: a wall standing close got half of it. The shooter's
+    axis where a cell took no light from one direction."""
+    cells = np.tile([*lobe.axis, lobe.scale], (len(incoming), 1))
+    if lobe.share.max() <= 0.0:
+        return cells
+    for cell, summed in zip(cells, incoming):
+        if summed[3] <= 0.0:
+            continue
+        beta, travel = from_one_direction(summed[:3] / summed[3], normal)
+        down = float(travel @ normal)
+        if beta > 0.0 and down < 0.0:
+            axis = travel - 2.0 * down * normal
+            cell[:] = [*axis, math.pi / lobe_integral(float(axis @ normal), lobe.exponent)]
+    return cells
 
 
 def white_sky_albedo(albedo, roughness):

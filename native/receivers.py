@@ -147,14 +147,14 @@ def set_patch_uniforms(state, shooters, views):
     _set_array(program, "u_quads", [tuple(corner) for shooter in shooters
                                     for corner in shooter.quad])
     _set_array(program, "u_centres", [tuple(shooter.centre) for shooter in shooters])
-    _set_array(program, "u_radiances", [tuple(shooter.radiance) for shooter in shooters])
     _set_array(program, "u_cell_radiances", [tuple(cell) for shooter in shooters
                                              for cell in shooter.cell_radiance])
     _set_array(program, "u_emits", [int(shooter.emits) for shooter in shooters])
     set_uniform(program, "u_any_emits", int(any(shooter.emits for shooter in shooters)))
-    lobe_uniforms = [shooter.lobe.uniforms() for shooter in shooters]
-    _set_array(program, "u_lobes", [lobe for lobe, _ in lobe_uniforms])
-    _set_array(program, "u_lobe_shares", [share for _, share in lobe_uniforms])
+    _set_array(program, "u_lobe_exponents", [shooter.lobe.exponent for shooter in shooters])
+    _set_array(program, "u_lobe_shares", [tuple(shooter.lobe.share) for shooter in shooters])
+    _set_array(program, "u_cell_lobes", [tuple(cell) for shooter in shooters
+                                         for cell in shooter.cell_lobes])
     # An empty rectangle: no texel is across a thin gap from this shooter.
     _set_array(program, "u_surface_extents", [
         NO_SURFACE if shooter.extent is None else tuple(shooter.extent) for shooter in shooters])

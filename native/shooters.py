@@ -27,9 +27,9 @@ FLAT_CHART_SINE = 0.1
 # A plane crosses a shooting block when texels lie this share of a texel beyond it each way.
 CROSSING_MARGIN = 1e-3
 # A shooter's quad shoots as SHOOTER_CELLS x SHOOTER_CELLS cells, each at the radiance of the
-# texels in it (receive_patch.frag gathers them near the shooter): a hot spot a lamp makes on
-# a wall beside it, shot at the block's mean radiance, lit the lamp facing the spot's bright
-# middle as much as the block's dim edge. Every shooter, even or not: shots gathered by cells
+# texels in it and with its own glossy lobe (receive_patch.frag gathers them one by one near
+# the shooter): a hot spot a lamp makes on a wall beside it, shot at the block's mean
+# radiance, lit the lamp facing the spot's bright middle as much as the block's dim edge. Every shooter, even or not: shots gathered by cells
 # only where their light varied split the transport in two by the light itself, which then
 # no longer held a closed room's light (its corners too bright).
 SHOOTER_CELLS = 2
@@ -186,15 +186,19 @@ def make_shooter(state, caches, region, maps, charts):
                                                  reflectance[members]),
             page.roughness[tuple(at)].astype(np.float64), fresnel=state.scene.glossy_fresnel)
     mean_radiance = reflection.power / total_area
+    shares = _cell_shares(quad, position[members, :3], texel_size[members])
     return Shooter(
         page=page, texels=texels + origin,
         centre=centre, frame=np.stack([t, b, n], axis=1), area=total_area, quad=quad,
         radiance=mean_radiance,
-        cell_radiance=_cell_radiance(quad, position[members, :3], texel_size[members],
-                                     radiance[members] * weights, mean_radiance),
+        cell_radiance=_cell_radiance(shares, radiance[members] * weights, mean_radiance),
         unshot=taken,
         incoming=None if maps.incoming is None else maps.incoming[members].astype(np.float32),
-        lobe=reflection.lobe, surplus=math.pi * (reflection.power - taken_power),
+        lobe=reflection.lobe,
+        cell_lobes=lobes.cell_lobes(reflection.lobe, n, np.zeros((shares.shape[1], 4))
+                                    if maps.incoming is None
+                                    else shares.T @ (maps.incoming[members] * weights)),
+        surplus=math.pi * (reflection.power - taken_power),
         # Texels that do not receive (surface 0: an emitter's back) take no light, so a thin
         # gap's light does not bounce off them.
         albedo=((reflectance[members] * weights).sum(axis=0) / total_area if surface > 0
@@ -202,13 +206,11 @@ def make_shooter(state, caches, region, maps, charts):
         surface=surface, emits=bool(_emitting(state, page, texels + origin).any()))
 
 
-def _cell_radiance(quad, points, sizes, powers, radiance):
-    """(SHOOTER_CELLS^2, 3) the radiance of each cell of ``quad`` (row by row from its first
-    corner, along its first edge), from the ``powers`` of the texels at ``points`` (squares of
-    side ``sizes``) shared among the cells their squares overlap: their shares of the
-    shooter's mean ``radiance``, so that the cells shoot what it does. By overlap, not by
-    sample point: a shooter of one texel, or one texel wide, would put its power in one cell
-    of its own quad, a quarter texel off."""
+def _cell_shares(quad, points, sizes):
+    """(N, SHOOTER_CELLS^2) the share of each texel, at ``points`` with squares of side
+    ``sizes``, in each cell of ``quad`` (row by row from its first corner, along its first
+    edge). By overlap, not by sample point: a shooter of one texel, or one texel wide, would
+    put its power in one cell of its own quad, a quarter texel off."""
     corners = np.asarray(quad, dtype=np.float64)
     edges = np.stack([corners[1] - corners[0], corners[3] - corners[0]], axis=1)   # (3, 2)
     along = np.linalg.lstsq(edges, (points - corners[0]).T, rcond=None)[0].T     # (N, 2)
@@ -222,10 +224,16 @@ def _cell_radiance(quad, points, sizes, powers, radiance):
     nearest = np.clip((along * SHOOTER_CELLS).astype(int), 0, SHOOTER_CELLS - 1)
     overlap = np.where(inside > 0.0, overlap / np.maximum(inside, 1e-30),
                        np.arange(SHOOTER_CELLS) == nearest[..., None])        # (N, 2, cells)
-    weights = (overlap[:, 1, :, None] * overlap[:, 0, None, :]).reshape(len(points), -1)
-    per_cell = weights.T @ powers
+    return (overlap[:, 1, :, None] * overlap[:, 0, None, :]).reshape(len(points), -1)
+
+
+def _cell_radiance(shares, powers, radiance):
+    """(SHOOTER_CELLS^2, 3) the radiance of each cell from the ``powers`` of the texels in it
+    (``shares``: _cell_shares): their shares of the shooter's mean ``radiance``, so that the
+    cells shoot what it does."""
+    per_cell = shares.T @ powers
     total = per_cell.sum(axis=0)
-    count = SHOOTER_CELLS * SHOOTER_CELLS
+    count = shares.shape[1]
     share = np.divide(per_cell, total, out=np.full((count, 3), 1.0 / count), where=total > 0.0)
     return share * count * radiance
 

@@ -178,6 +178,8 @@ class Shooter:
     incoming: np.ndarray        # (N, 4) float32: and from its incoming directions (None
                                 # without lobes)
     lobe: object                # lobes.Lobe: where its glossy share goes
+    cell_lobes: np.ndarray      # (cells, 4): each cell's lobe axis (xyz) and scale (w)
+                                # (lobes.cell_lobes)
     surplus: np.ndarray         # (3,) W: what it shoots beyond what it took (lobes.reflect)
     albedo: np.ndarray          # its texels' mean albedo: what a thin gap's far side bounces
     surface: int                # the surface number of its strongest texel (0: it does

@@ -2,10 +2,11 @@
 // Receiver update for a batch of shooting patches, gathered one after another per texel in
 // one pass: every receiving texel visible from a shooter gains irradiance pi * L * F, with F
 // the exact point-to-polygon form factor (Lambert's formula) of the shooter's quad clipped to
-// the receiver's horizon: bounded however close they are; near the shooter, the sum of that
-// over the quad's cells, each at its own radiance L. Each shooter's visibility map is
-// the six layers from 6 x its index. The share of a shooter's light its glossy layers reflect
-// leaves in a lobe about a direction (lobes.py), the rest as from a diffuse surface.
+// the receiver's horizon: bounded however close they are; summed over the quad's cells, each
+// at its own radiance L (radiance_form_factor()). Each shooter's visibility map is the six
+// layers from 6 x its index. The share of a shooter's light its glossy layers reflect leaves
+// in a lobe about a direction (lobes.py), each cell's its own, the rest as from a diffuse
+// surface.
 #define VIEW_PER_SHOOTER
 #include "projection.glsl"
 #include "visibility_test.glsl"
@@ -17,11 +18,10 @@ uniform int u_shooter_count;   // this pass's, up to MOST_SHOOTERS
 uniform vec3 u_quads[4 * MOST_SHOOTERS];  // each shooter's quad corners, world space,
                                           // counter-clockwise about the shooter's normal
 uniform vec3 u_centres[MOST_SHOOTERS];
-uniform vec3 u_radiances[MOST_SHOOTERS];  // unshot radiance leaving the front face (shooters
-                                          // are one-sided: a two-sided emitter shoots from a
-                                          // mirrored copy)
 // SHOOTER_CELLS (defined where the program is made) x as many cells of each quad, row by
-// row from its first corner along its first edge, each at its own texels' radiance.
+// row from its first corner along its first edge: the unshot radiance of its texels,
+// leaving the front face (shooters are one-sided: a two-sided emitter shoots from a
+// mirrored copy).
 uniform vec3 u_cell_radiances[SHOOTER_CELLS * SHOOTER_CELLS * MOST_SHOOTERS];
 uniform int u_emits[MOST_SHOOTERS];       // 1: the shooter shoots emission, whose shadows
                                           // are sharp: receivers take visibility over their
@@ -31,25 +31,21 @@ uniform int u_any_emits;                  // 1: some shooter of the pass emits
 uniform vec4 u_surface_extents[MOST_SHOOTERS];  // u min, u max, v min, v max of the shooter's
                                                 // surface along its frame's tangent and
                                                 // bitangent, from its centre
-uniform vec4 u_lobes[MOST_SHOOTERS];      // the glossy lobe's axis (xyz) and exponent (w)
-uniform vec4 u_lobe_shares[MOST_SHOOTERS];  // the glossy share of the radiance (rgb) and the
-                                            // lobe's scale (a): its radiance over the mean
+uniform float u_lobe_exponents[MOST_SHOOTERS];  // each shooter's glossy lobe's
+uniform vec3 u_lobe_shares[MOST_SHOOTERS];      // the glossy share of the radiance it shoots
+// Each cell's lobe: its axis (xyz) and scale (w), its radiance along the axis over the mean.
+uniform vec4 u_cell_lobes[SHOOTER_CELLS * SHOOTER_CELLS * MOST_SHOOTERS];
 uniform vec3 u_eyes[MOST_SHOOTERS];       // where each shooter's map was drawn from
 uniform mat3 u_frames[MOST_SHOOTERS];     // and its frame (columns t, b, n)
 uniform float u_thin_gap;      // a gap under this share of a texel is thin
-
-// Where lobe_factor() looks from: this share of the way from the shooter's centre to its
-// quad's corners.
-const float GAUSS_POINT = 0.57735027;
 
 // The current shooter (select_shooter): its index and values.
 int shooter;
 vec3 shot_quad[4];
 vec3 shot_centre;
-vec3 shot_radiance;
 vec4 shot_extent;
-vec4 shot_lobe;
-vec4 shot_lobe_share;
+float shot_exponent;
+vec3 shot_lobe_share;
 
 // A batch of one is known here: the pass then compiles without the loop over shooters.
 int shooter_count() { return MOST_SHOOTERS == 1 ? 1 : u_shooter_count; }
@@ -66,9 +62,8 @@ bool select_shooter(int index) {
     shooter = index;
     for (int i = 0; i < 4; ++i) shot_quad[i] = u_quads[4 * index + i];
     shot_centre = u_centres[index];
-    shot_radiance = u_radiances[index];
     shot_extent = u_surface_extents[index];
-    shot_lobe = u_lobes[index];
+    shot_exponent = u_lobe_exponents[index];
     shot_lobe_share = u_lobe_shares[index];
     u_eye = u_eyes[index];
     u_frame = u_frames[index];
@@ -76,20 +71,31 @@ bool select_shooter(int index) {
 }
 
 // Within this many quad diagonals of a shooter's centre a receiver gathers its cells one by
-// one; farther, where the form factor hardly varies across the quad, its mean radiance.
+// one; farther, where the form factor hardly varies across the quad, each its share of it.
 const float CELL_REACH = 2.0;
+// And each cell in CELL_PARTS x CELL_PARTS parts, each along the way its own light travels:
+// seen from close by, a lobe varies across a cell. Without lobes a cell sends the same all
+// across it.
+#if GLOSSY_LOBES
+const int CELL_PARTS = 2;
+#else
+const int CELL_PARTS = 1;
+#endif
 
-float polygon_form_factor(vec3 quad[4], vec3 p, vec3 n) {
+// The vector form factor of 'polygon' at 'p' (Lambert's formula, the polygon clipped to the
+// horizon of 'n'): the form factor is minus its component along 'n', and it points the way
+// the polygon's light travels to p, its directions weighted by the solid angle they span.
+vec3 form_factor_vector(vec3 polygon[4], vec3 p, vec3 n) {
     vec3 poly[5];
     int count = 0;
     for (int i = 0; i < 4; ++i) {
-        vec3 a = quad[i] - p, b = quad[(i + 1) % 4] - p;
+        vec3 a = polygon[i] - p, b = polygon[(i + 1) % 4] - p;
         float da = dot(a, n), db = dot(b, n);
         if (da >= 0.0) poly[count++] = a;
         if ((da >= 0.0) != (db >= 0.0)) poly[count++] = a + (b - a) * (da / (da - db));
     }
-    if (count < 3) return 0.0;
-    float sum = 0.0;
+    vec3 sum = vec3(0.0);
+    if (count < 3) return sum;
     for (int i = 0; i < count; ++i) {
         vec3 a = poly[i], b = poly[(i + 1) % count];
         float la = length(a), lb = length(b);
@@ -98,60 +104,72 @@ float polygon_form_factor(vec3 quad[4], vec3 p, vec3 n) {
         vec3 g = cross(a, b);
         float s = length(g);
         if (s < 1e-12) continue;
-        sum += atan(s, dot(a, b)) * dot(n, g) / s;
+        sum += atan(s, dot(a, b)) * g / s;
     }
-    // Seen from its front, the quad winds clockwise: the sum is negative. A point behind the
-    // quad sees its back, which emits nothing. The quad of a shooter on a curved chart is a
-    // plane through the chart, a few degrees off the shooter's frame: a texel on the
-    // surface's other side (an emitter's back-face copy, right behind it) can lie above the
-    // frame's plane yet behind the quad, and at a millimetre from it got almost all of it.
-    return clamp(-sum / (2.0 * PI), 0.0, 1.0);
+    return sum / (2.0 * PI);
 }
 
 vec3 quad_point(float s, float t) {
     return mix(mix(shot_quad[0], shot_quad[1], s), mix(shot_quad[3], shot_quad[2], s), t);
 }
 
-// The shooter's radiance times the form factor: near the shooter, the sum over its cells (a
-// hot spot in the block's middle lights what faces it more than the block's mean would);
-// farther, its mean radiance over the whole quad. One call site of polygon_form_factor().
+// What the shooter's 'cell' sends along 'travel' over what a diffuse cell of its radiance
+// would: its glossy share in its lobe (lobes.cell_lobes), the rest evenly.
+vec3 lobe_factor(int cell, vec3 travel) {
+#if GLOSSY_LOBES
+    vec4 lobe = u_cell_lobes[shooter * SHOOTER_CELLS * SHOOTER_CELLS + cell];
+    float along = dot(travel, lobe.xyz);
+    float radiance = along > 0.0 ? lobe.w * exp2(shot_exponent * log2(along)) : 0.0;
+    return 1.0 + shot_lobe_share * (radiance - 1.0);
+#else
+    return vec3(1.0);
+#endif
+}
+
+// The shooter's radiance times the form factor and its lobe's factor towards 'p', summed
+// over its cells, each at its own radiance and with its own lobe. Near the shooter each part
+// of a cell takes its own form factor, and the cell's lobe along the way the part's light
+// travels to p: a hot spot in the block's middle lights what faces it more than the block's
+// mean would, and a wall standing on a glossy floor gets most of its light from the floor
+// nearest, along directions the cells' middles do not send in. Farther, each cell takes its
+// share of the quad's form factor, along the way from its middle. One call site of
+// form_factor_vector().
 vec3 radiance_form_factor(vec3 p, vec3 n) {
+    const int CELLS = SHOOTER_CELLS * SHOOTER_CELLS;
+    const int PARTS = SHOOTER_CELLS * CELL_PARTS;   // along each side of the quad
     bool near = distance(p, shot_centre) < CELL_REACH * length(shot_quad[2] - shot_quad[0]);
-    int cells = near ? SHOOTER_CELLS * SHOOTER_CELLS : 1;
-    // A cell's side in the quad's parameters: the whole quad's where far.
-    float side = near ? 1.0 / float(SHOOTER_CELLS) : 1.0;
+    int polygons = near ? PARTS * PARTS : 1;
+    float side = near ? 1.0 / float(PARTS) : 1.0;   // in the quad's parameters
     vec3 sum = vec3(0.0);
-    for (int k = 0; k < cells; ++k) {
-        vec2 low = vec2(k % SHOOTER_CELLS, k / SHOOTER_CELLS) * side;
-        vec3 quad[4] = vec3[4](quad_point(low.x, low.y), quad_point(low.x + side, low.y),
-                               quad_point(low.x + side, low.y + side),
-                               quad_point(low.x, low.y + side));
-        vec3 radiance = near ? u_cell_radiances[shooter * SHOOTER_CELLS * SHOOTER_CELLS + k]
-                             : shot_radiance;
-        sum += radiance * polygon_form_factor(quad, p, n);
+    for (int j = 0; j < polygons; ++j) {
+        ivec2 at = ivec2(j % PARTS, j / PARTS);
+        vec2 low = vec2(at) * side;
+        int own = (at.y / CELL_PARTS) * SHOOTER_CELLS + at.x / CELL_PARTS;   // its cell
+        vec3 polygon[4] = vec3[4](quad_point(low.x, low.y), quad_point(low.x + side, low.y),
+                                  quad_point(low.x + side, low.y + side),
+                                  quad_point(low.x, low.y + side));
+        vec3 vector = form_factor_vector(polygon, p, n);
+        // Seen from its front, a polygon winds clockwise: the vector points away from n. A
+        // point behind the quad sees its back, which emits nothing. The quad of a shooter
+        // on a curved chart is a plane through the chart, a few degrees off the shooter's
+        // frame: a texel on the surface's other side (an emitter's back-face copy, right
+        // behind it) can lie above the frame's plane yet behind the quad, and at a
+        // millimetre from it got almost all of it.
+        float form_factor = clamp(-dot(n, vector), 0.0, 1.0);
+        if (form_factor <= 0.0) continue;
+        for (int k = near ? own : 0; k < (near ? own + 1 : CELLS); ++k) {
+            vec2 middle = (vec2(k % SHOOTER_CELLS, k / SHOOTER_CELLS) + 0.5)
+                / float(SHOOTER_CELLS);
+            vec3 travel = near ? normalize(vector)
+                               : normalize(p - quad_point(middle.x, middle.y));
+            sum += u_cell_radiances[shooter * CELLS + k] * lobe_factor(k, travel)
+                * (near ? form_factor : form_factor / float(CELLS));
+        }
     }
     return sum;
 }
 
 vec3 travel_direction(vec3 point) { return normalize(point - shot_centre); }
-
-// What the shooter sends towards 'point' over what a diffuse shooter of its radiance would:
-// the lobe's mean over the directions from four points of its quad (the 2 x 2 Gauss points
-// of a square), not its centre alone: a sharp lobe seen from a large shooter's centre lit
-// a spot where the quad's mirror image lights an area.
-vec3 lobe_factor(vec3 point) {
-#if GLOSSY_LOBES
-    float lobe = 0.0;
-    for (int i = 0; i < 4; ++i) {
-        vec3 from = shot_centre + (shot_quad[i] - shot_centre) * GAUSS_POINT;
-        float along = dot(normalize(point - from), shot_lobe.xyz);
-        if (along > 0.0) lobe += exp2(shot_lobe.w * log2(along));
-    }
-    return 1.0 + shot_lobe_share.rgb * (0.25 * shot_lobe_share.a * lobe - 1.0);
-#else
-    return vec3(1.0);
-#endif
-}
 
 bool in_near_field(vec3 point, float texel_size) {
     float reach = 0.5 * length(shot_quad[2] - shot_quad[0]) + 2.0 * texel_size;
@@ -182,5 +200,5 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     if (near_side > 0.0 && across_thin_gap(from_shooter, height, normal, near_side)) return vec3(0.0);
     float visible = visible_over_texel(point, normal, 6 * shooter, u_emits[shooter] != 0);
     if (visible <= 0.0) return vec3(0.0);
-    return PI * lobe_factor(point) * radiance_form_factor(point, normal) * visible;
+    return PI * radiance_form_factor(point, normal) * visible;
 }
