@@ -167,8 +167,8 @@ def cell_lobes(lobe, normal, incoming):
     directions summed as reflect() reads them (zero where the scene keeps none), with the
     shooter's ``lobe``'s exponent. A block's one axis, the mirror of its texels' mean, sent a
     lamp's light off a floor block the same way from its near and its far side, where each
-    side mirrors the lamp its own way: a wall standing close got half of it. The shooter's
-    axis where a cell took no light from one direction."""
+    side mirrors the lamp its own way: a wall standing on the floor got 0.82 of it. The
+    shooter's axis where a cell took no light from one direction."""
     cells = np.tile([*lobe.axis, lobe.scale], (len(incoming), 1))
     if lobe.share.max() <= 0.0:
         return cells

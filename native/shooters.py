@@ -29,9 +29,10 @@ CROSSING_MARGIN = 1e-3
 # A shooter's quad shoots as SHOOTER_CELLS x SHOOTER_CELLS cells, each at the radiance of the
 # texels in it and with its own glossy lobe (receive_patch.frag gathers them one by one near
 # the shooter): a hot spot a lamp makes on a wall beside it, shot at the block's mean
-# radiance, lit the lamp facing the spot's bright middle as much as the block's dim edge. Every shooter, even or not: shots gathered by cells
-# only where their light varied split the transport in two by the light itself, which then
-# no longer held a closed room's light (its corners too bright).
+# radiance, lit the lamp facing the spot's bright middle as much as the block's dim edge.
+# Every shooter, even or not: shots gathered by cells only where their light varied split
+# the transport in two by the light itself, which then no longer held a closed room's light
+# (its corners too bright).
 SHOOTER_CELLS = 2
 # What a shooter reads of its block: (attachment of state.Page.blocks, components); the last,
 # the incoming directions, where the scene needs lobes (BakeState.glossy_lobes).
