@@ -162,15 +162,15 @@ def lobe_irradiance(points, roughness, samples=(320, 400)):
                                                                   (0.3, 0.05, None)])
 def test_a_glossy_floor_lights_the_wall_standing_on_it_as_its_lobes_send(
         ctx, gl_clean, roughness, mean_within, texel_within):
-    """The wall's light from the floor (its lightmap less the lamp's direct light), where it
-    rises 0.15-0.8 m and faces the lamp's side of the floor, against lobe_irradiance(): at
-    Blender's default roughness 0.5 within 3 % in the mean and 7 % per texel, at the
-    sharper 0.3 within 5 % in the mean. Each shooter's one lobe about the mirror of its
-    texels' mean direction, seen from four points of its quad, gave 0.82 and 0.64 of it
-    (texels down to 0.57): a floor block mirrors the lamp one way from its near side and
-    another from its far side, and the wall in front of it gets most of its light from the
-    near one. Not the wall's foot, within a texel and a half of the floor (1.14 of it at
-    0.5, a lobe sampled at a point a sixteenth of a block across)."""
+    """The wall's light from the floor (its lightmap less the lamp's direct light), 0.15-0.8 m
+    up its middle metre, against lobe_irradiance(): at Blender's default roughness 0.5
+    within 3 % in the mean and 7 % per texel, at the sharper 0.3 within 5 % in the mean.
+    Each shooter's one lobe about the mirror of its texels' mean direction, seen from four
+    points of its quad, gave 0.82 and 0.64 of it (texels down to 0.57): a floor block
+    mirrors the lamp one way from its near side and another from its far side, and the wall
+    in front of it gets most of its light from the near one. Not the wall's foot, within a
+    texel and a half of the floor (1.14 of it at 0.5): there the lobe varies across even a
+    quarter of a cell."""
     image, samples, _ = bake(floor_and_wall_scene(roughness), ctx, texel_density=12,
                              threshold=0.002)
     position = samples["position"][samples["occupied"]]
