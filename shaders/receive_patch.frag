@@ -131,8 +131,8 @@ vec3 lobe_factor(int cell, vec3 travel) {
 // of a cell takes its own form factor, and the cell's lobe along the way the part's light
 // travels to p: a hot spot in the block's middle lights what faces it more than the block's
 // mean would, and a wall standing on a glossy floor gets most of its light from the floor
-// nearest, along directions the cells' middles do not send in. Farther, each cell takes its
-// share of the quad's form factor, along the way from its middle. One call site of
+// nearest, along directions the cells' middles do not send in. Farther, the quad's form
+// factor is shared among its cells, each along the way from its middle. One call site of
 // form_factor_vector().
 vec3 radiance_form_factor(vec3 p, vec3 n) {
     const int CELLS = SHOOTER_CELLS * SHOOTER_CELLS;
@@ -157,14 +157,32 @@ vec3 radiance_form_factor(vec3 p, vec3 n) {
         // millimetre from it got almost all of it.
         float form_factor = clamp(-dot(n, vector), 0.0, 1.0);
         if (form_factor <= 0.0) continue;
-        for (int k = near ? own : 0; k < (near ? own + 1 : CELLS); ++k) {
+        if (near) {
+            sum += u_cell_radiances[shooter * CELLS + own]
+                * lobe_factor(own, normalize(vector)) * form_factor;
+            continue;
+        }
+        // Farther, the quad's form factor shared among its cells as their point-to-point
+        // form factors from their middles: the cell nearest the receiver, which its light
+        // brightened most (a lamp's hot spot on the wall beside it), takes the most. Where
+        // every middle lies behind the receiver's horizon (the quad's edge above it lights
+        // it), each cell alike.
+        vec3 weighted = vec3(0.0), even = vec3(0.0);
+        float weights = 0.0;
+        for (int k = 0; k < CELLS; ++k) {
             vec2 middle = (vec2(k % SHOOTER_CELLS, k / SHOOTER_CELLS) + 0.5)
                 / float(SHOOTER_CELLS);
-            vec3 travel = near ? normalize(vector)
-                               : normalize(p - quad_point(middle.x, middle.y));
-            sum += u_cell_radiances[shooter * CELLS + k] * lobe_factor(k, travel)
-                * (near ? form_factor : form_factor / float(CELLS));
+            vec3 travel = p - quad_point(middle.x, middle.y);
+            float squared = dot(travel, travel);
+            float weight = max(dot(travel, u_frame[2]), 0.0) * max(-dot(travel, n), 0.0)
+                / (squared * squared);
+            vec3 light = u_cell_radiances[shooter * CELLS + k]
+                * lobe_factor(k, travel * inversesqrt(squared));
+            weighted += light * weight;
+            even += light;
+            weights += weight;
         }
+        sum += form_factor * (weights > 0.0 ? weighted / weights : even / float(CELLS));
     }
     return sum;
 }
