@@ -11,7 +11,7 @@ from .errors import SettingsError
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
 from .shooters import SHOOTER_CELLS
-from .state import MAP_UNITS, Bounds, Energy, Page, decode_normals, read_map
+from .state import BEND_STEPS, MAP_UNITS, Bounds, Energy, Page, decode_normals, read_map
 
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
                  ("in_albedo", 3), ("in_reflectance", 3), ("in_emission", 3), ("in_receive", 1),
@@ -35,8 +35,6 @@ SURFACE_NUMBERS = 4095
 # that cancel (a whole tube in one texel) leave no mean direction.
 FLAT_SPREAD = 0.999
 MIN_SPREAD = 1e-3
-# A bent texel's axis and tilt (bent_normal_codes) take 8 bits each of one 16-bit channel.
-BEND_STEPS = 255
 # Under this sine between a texel's sample normal and its mean normal, the sample is the mean.
 BEND_DIRECTION_SINE = math.sin(math.radians(1.0))
 # What lets a vertex shader pick the layer it draws into: the cube's faces drawn one by one.

@@ -10,7 +10,7 @@ import numpy as np
 from . import lobes
 from .geometry import (chart_quad, lightmap_tangent, quad_in_plane, rectangle_around,
                        region_charts, shooter_quad, vector_cross, vector_length)
-from .state import Region, Shooter, decode_normals
+from .state import Region, Shooter, decode_normals, decode_surface_normals
 
 # A shooter takes the texels of its block whose unshot radiance is at least this share of the
 # strongest one's; the rest wait for a later shot. Lumping a bright corner with dim texels
@@ -36,14 +36,16 @@ CROSSING_MARGIN = 1e-3
 SHOOTER_CELLS = 2
 # What a shooter reads of its block: (attachment of state.Page.blocks, components); the last,
 # the incoming directions, where the scene needs lobes (BakeState.glossy_lobes).
-BLOCK_MAPS = ((0, 4), (1, 2), (2, 4), (3, 4), (4, 4))
+BLOCK_MAPS = ((0, 4), (1, 4), (2, 4), (3, 4), (4, 4))
 
 
 @dataclass
 class BlockMaps:
     """A region's maps read back, as float64 rows (row-major within the region)."""
     position: np.ndarray    # (N, 4): xyz, area
-    normal: np.ndarray      # (N, 3)
+    normal: np.ndarray      # (N, 3) at the sample point
+    surface_normal: np.ndarray  # (N, 4): the mean of the covered surface's normals, and its
+    #                             length (state.decode_surface_normals)
     unshot: np.ndarray      # (N, 4): radiance, texel size
     surface: np.ndarray     # (N,) surface numbers
     reflectance: np.ndarray  # (N, 3)
@@ -52,8 +54,8 @@ class BlockMaps:
 
     def rows(self, rows):
         return BlockMaps(*(None if values is None else values[rows] for values in (
-            self.position, self.normal, self.unshot, self.surface, self.reflectance,
-            self.incoming)))
+            self.position, self.normal, self.surface_normal, self.unshot, self.surface,
+            self.reflectance, self.incoming)))
 
 
 @dataclass
@@ -92,10 +94,14 @@ def read_blocks(state, caches, regions):
     per_region = [rows[i::maps] for i in range(maps)]
     if not state.glossy_lobes:
         per_region.append([None] * len(regions))
-    return [BlockMaps(position, decode_normals(normal), unshot,
-                      np.floor(material[:, 3] * 65535.0 + 0.5), material[:, :3],  # decode_surface()
-                      incoming)
-            for position, normal, unshot, material, incoming in zip(*per_region)]
+    blocks = []
+    for position, normal, unshot, material, incoming in zip(*per_region):
+        sample_normals = decode_normals(normal)
+        blocks.append(BlockMaps(position, sample_normals,
+                                decode_surface_normals(sample_normals, normal), unshot,
+                                np.floor(material[:, 3] * 65535.0 + 0.5),  # decode_surface()
+                                material[:, :3], incoming))
+    return blocks
 
 
 def parts(state, region, maps, finer):
@@ -151,13 +157,19 @@ def make_shooter(state, caches, region, maps, charts):
     weights = area[members, None]
     total_area = float(weights.sum())
     centre = (position[members, :3] * weights).sum(axis=0) / total_area
-    n = (normal[members] * weights).sum(axis=0)
+    # Facing as the surface the texels cover does: a texel's sample normal is one facet's.
+    n = (maps.surface_normal[members, :3] * weights).sum(axis=0)
     n /= vector_length(n)
     texels = np.stack([members % width, members // width], axis=1)
-    # The shooter's plane through its front-most texel, not their centroid: the texels of a
-    # curved sheet bulge past the plane through their centroid, where the sheet's back faces
-    # (an emitter's back-face copy) were in front of the shooter, a millimetre from its quad.
-    centre = centre + n * (float(((position[members, :3] - centre) @ n).max())
+    # The shooter's plane in front of its texels' surface, not through their centroid: the
+    # texels of a curved sheet bulge past the plane through their centroid, where the
+    # sheet's back faces (an emitter's back-face copy) were in front of the shooter, a
+    # millimetre from its quad; and a sheet bending within a texel rises past its sample
+    # point, where a quad through it poked through a glowing lamp shade's shell, in front
+    # of the shell's other side.
+    centre = centre + n * (float((((position[members, :3] - centre) @ n)
+                                  + _own_bend_rise(maps.surface_normal[members, 3],
+                                                   texel_size[members])).max())
                            + _bend_rise(texels, position[members, :3], normal[members]))
     t = lightmap_tangent(texels, position[members, :3], n)
     b = vector_cross(n, t)
@@ -263,6 +275,13 @@ def _lies_along(chart, normal):
     steps = chart.basis.T
     return bool((np.abs(steps @ normal)
                  <= FLAT_CHART_SINE * np.linalg.norm(steps, axis=1)).all())
+
+
+def _own_bend_rise(spreads, sizes):
+    """(N,) how far the surface within each texel (of side ``sizes``) can rise past its
+    sample point's plane: half the texel's diagonal times the sine of the angle between its
+    mean normal and its normals (their spread, the mean's length, is its cosine)."""
+    return 0.5 * math.sqrt(2.0) * sizes * np.sqrt(np.clip(1.0 - spreads * spreads, 0.0, 1.0))
 
 
 def _bend_rise(texels, points, normals):

@@ -3,14 +3,19 @@ Page), the scene's bounding sphere, the visibility map, the energy totals, and t
 that travel from stage to stage (Region, Shooter, View). Each stage module takes these as
 arguments; none of them imports another stage."""
 from dataclasses import dataclass, field
+import math
 
 import moderngl
 import numpy as np
 
+from .geometry import tangents_of
 from .gpu import render_state, set_uniform
 
 # The octahedral normal's steps each way of 0 in its 16-bit channels (texel_maps.glsl).
 OCT_STEPS = 32767.0
+# A bent texel's axis and tilt (preprocess.bent_normal_codes) take 8 bits each of one 16-bit
+# channel.
+BEND_STEPS = 255
 # A surface rectangle (u min, u max, v min, v max) that holds no point.
 NO_SURFACE = (1e30, -1e30, 1e30, -1e30)
 # Texture units of the maps a receiver pass reads (receiver_common.glsl): the visibility map
@@ -209,6 +214,20 @@ def decode_normals(stored):
     xy = np.where((z < 0.0)[..., None], folded, p)
     n = np.concatenate([xy, z[..., None]], axis=-1)
     return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
+
+
+def decode_surface_normals(sample_normals, stored):
+    """(N, 4) per texel the mean of the normals of the surface it covers (xyz, unit) and the
+    mean's length, its spread (w; 1 where flat), from its ``sample_normals`` and the normal
+    map's values in [0, 1] (preprocess.bent_normal_codes; texel_maps.glsl decode_bend)."""
+    code = np.floor(stored[:, 3].astype(np.float64) * 65535.0 + 0.5)
+    heading = (np.floor(code / (BEND_STEPS + 1)) / BEND_STEPS - 0.5) * 2.0 * math.pi
+    tilt = (code % (BEND_STEPS + 1)) / BEND_STEPS * 0.5 * math.pi
+    t = tangents_of(sample_normals)
+    towards = (np.cos(heading)[:, None] * t
+               + np.sin(heading)[:, None] * np.cross(sample_normals, t))
+    mean = np.cos(tilt)[:, None] * sample_normals + np.sin(tilt)[:, None] * towards
+    return np.column_stack([mean, stored[:, 2].astype(np.float64)])
 
 
 def in_atlas_layout(state, page, image):

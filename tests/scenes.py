@@ -1,4 +1,6 @@
 """Scenes with closed-form answers, built through the solver API."""
+import math
+
 import numpy as np
 
 from native.samples import SceneBuilder
@@ -93,3 +95,16 @@ def smooth_tube(radius, length, sides, rings):
             c, d = b + sides, a + sides
             triangles += [[a, b, c], [a, c, d]]
     return vertices, np.array(triangles), normals
+
+
+def open_cone(bottom_radius, top_radius, height, facets):
+    """The facets of an open cone about +z from z = 0 to ``height``, each a quad's corners
+    counter-clockwise seen from outside."""
+    quads = []
+    for j in range(facets):
+        a0, a1 = 2 * math.pi * j / facets, 2 * math.pi * (j + 1) / facets
+        quads.append([(bottom_radius * math.cos(a0), bottom_radius * math.sin(a0), 0.0),
+                      (bottom_radius * math.cos(a1), bottom_radius * math.sin(a1), 0.0),
+                      (top_radius * math.cos(a1), top_radius * math.sin(a1), height),
+                      (top_radius * math.cos(a0), top_radius * math.sin(a0), height)])
+    return quads

@@ -64,7 +64,7 @@ def test_parallel_squares_match_corner_formula(ctx, gl_clean, projection):
     area = samples["area"][rows, cols]
     mean = (measured * area[:, None]).sum(axis=0) / area.sum()
     truth = albedo * radiance * analytic.parallel_squares_form_factor(1, 1)
-    np.testing.assert_allclose(mean, truth, rtol=0.015 if plate_x < 1.0 else 0.01)
+    np.testing.assert_allclose(mean, truth, rtol=0.01)
 
 
 def test_perpendicular_squares_match_common_edge_formula(ctx, gl_clean, projection):
@@ -167,7 +167,7 @@ def test_sun_lights_by_cosine_and_casts_a_sharp_shadow(ctx, gl_clean, projection
     lit = (np.abs(x) > 0.25 + margin) | (np.abs(y) > 0.25 + margin)
     assert in_shadow.sum() > 4
     assert np.all(measured[in_shadow] == 0.0)
-    np.testing.assert_allclose(measured[lit], 0.5 * 3.0 * math.cos(angle) / math.pi, rtol=0.015 if plate_x < 1.0 else 0.01)
+    np.testing.assert_allclose(measured[lit], 0.5 * 3.0 * math.cos(angle) / math.pi, rtol=0.01)
 
 
 def test_partly_covered_texels_along_a_diagonal_edge_have_no_dark_rim(ctx, gl_clean, projection):
@@ -255,6 +255,27 @@ def test_two_sided_emitter_lights_both_sides_one_sided_only_its_front(ctx, gl_cl
             expected = np.array([albedo * 2.0 * analytic.parallel_rectangle_form_factor(
                 x, y, 0, 1, 0, 1, 0.5) for x, y in position[:, :2]])
             assert np.max(np.abs(measured / expected - 1)) < 0.03
+
+
+@pytest.mark.parametrize("shoot_level", [0, 1, 2])
+def test_an_open_shade_glowing_on_both_sides_does_not_light_its_own_outside(
+        ctx, gl_clean, projection, shoot_level):
+    """An open cone of 24 facets (a lamp shade: radius 0.22 m to 0.15 m over 0.3 m) glowing
+    on both sides, and a black wall 0.6 m away: nothing can light the shade's outside. Shot
+    from a texel whose surface bends across two facets, the inside's quad in the plane of the
+    sample's facet through the facets' edge poked 1 cm through the shell over the next facet,
+    and two outside texels took nearly all of the inside's exitance."""
+    builder = SceneBuilder()
+    builder.quad("wall", [(0.6, 1, -0.7), (0.6, -1, -0.7), (0.6, -1, 1), (0.6, 1, 1)],
+                 (0.0,) * 3, two_sided=False)
+    for corners in scenes.open_cone(0.22, 0.15, 0.3, facets=24):
+        builder.quad("shade", corners, (0.5,) * 3, (1.0,) * 3, two_sided=True)
+    image, samples, _ = bake(builder.build(), ctx, projection, texel_density=10,
+                             threshold=0.001, shoot_level=shoot_level)
+    shade = samples["occupied"] & (samples["position"][..., 0] < 0.5)
+    assert shade.sum() >= 40
+    # Radiance rho E / pi: E under a millionth of the exitance pi L.
+    assert image[..., 0][shade].max() <= 0.5 * 1e-6
 
 
 def penumbra_scene():
@@ -375,7 +396,7 @@ def test_uniform_sky_lights_an_open_plane_by_rho_times_radiance(ctx, gl_clean, p
     measured = image[rows, cols, :3][away]
     # 256 sun directions stand in for the sky: each texel within 5 %, the mean within 1 %.
     np.testing.assert_allclose(measured, expected, rtol=0.05)
-    np.testing.assert_allclose(measured.mean(axis=0), expected.mean(axis=0), rtol=0.015 if plate_x < 1.0 else 0.01)
+    np.testing.assert_allclose(measured.mean(axis=0), expected.mean(axis=0), rtol=0.01)
 
 
 def test_non_occluding_emitter_lights_without_casting_shadows(ctx, gl_clean, projection):
@@ -397,7 +418,7 @@ def test_non_occluding_emitter_lights_without_casting_shadows(ctx, gl_clean, pro
     rows2, cols2 = receiver_texels(samples2)
     # The second emitter sits 1 mm lower: its form factor is within 0.3 % of the first's.
     np.testing.assert_allclose(doubled[rows2, cols2, :3].mean(axis=0),
-                               2 * reference[rows, cols, :3].mean(axis=0), rtol=0.015 if plate_x < 1.0 else 0.01)
+                               2 * reference[rows, cols, :3].mean(axis=0), rtol=0.01)
 
 
 @pytest.mark.parametrize("spot_at", [(0.0, 0.0), (0.35, 0.2), (-0.4, 0.1)])
@@ -410,10 +431,10 @@ def test_a_hot_spot_lights_what_faces_it_by_its_own_radiance(ctx, gl_clean, proj
     600 x 600 quadrature). At 0.6 m, the wall's 40 cm blocks shot at their mean radiance gave
     the plate's texels up to 5.1 %, 4.8 % and 3.9 % too little (it faces the spot's bright
     middle); each block's quad in cells at their own radiance, 2.2 %, 1.6 % and 1.4 %; their
-    parts on the slope between the cells' radiances, 1.4 %, 0.3 % and 0.5 %. At 1.4 m, where each cell
-    took an even share of its block's form factor, 1.9 %, 1.9 % and 1.7 %; as their form
-    factors from their middles share it, 0.7 %, 0.5 % and 0.5 %. The plate's albedo keeps its
-    light back below 0.1 %."""
+    parts on the slope between the cells' radiances, 1.4 %, 0.3 % and 0.5 %. At 1.4 m, where
+    each cell took an even share of its block's form factor, 1.9 %, 1.9 % and 1.7 %; as
+    their form factors from their middles share it, 0.7 %, 0.5 % and 0.5 %. The plate's
+    albedo keeps its light back below 0.1 %."""
     wall_albedo, plate_albedo = 0.5, 0.05
     light = np.array([0.3, *spot_at])
     spot = SpotLight(position=tuple(light), power=100.0, direction=(-1.0, 0.0, 0.0),
