@@ -48,5 +48,5 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
         }
         irradiance = u_light_value * mask * cos_r / dist2;
     }
-    return irradiance * visible_over_texel(point, normal, 0, pass_takes_squares());
+    return irradiance * visible_over_texel(point, 0, pass_takes_squares());
 }

@@ -235,7 +235,7 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
     if (height <= u_epsilon || dot(normal, from_shooter) >= 0.0) return vec3(0.0);
     // Across a thin gap the solver gives the light (across_thin_gap()).
     if (near_side > 0.0 && across_thin_gap(from_shooter, height, normal, near_side)) return vec3(0.0);
-    float visible = visible_over_texel(point, normal, 6 * shooter, u_emits[shooter] != 0);
+    float visible = visible_over_texel(point, 6 * shooter, u_emits[shooter] != 0);
     if (visible <= 0.0) return vec3(0.0);
     return PI * radiance_form_factor(point, normal) * visible;
 }

@@ -17,6 +17,9 @@ layout(location = 2) out vec4 out_incoming;    // added to the unshot light's di
 const float PI = 3.14159265358979;
 
 float receiver_surface;   // the number of the texel's surface, for visible_from_eye()
+// The texel's surface's normal at its sample point: its plane, against which visibility is
+// tested, whatever normal the texel gathers at (a curved texel gathers at two).
+vec3 receiver_normal;
 // The receiving texel's square (its steps to the next texels on the page), over which a
 // gather at its sample point takes visibility; zero where it gathers at several points
 // (subdivided, or next to the shooter) or at a chart's border.
@@ -68,7 +71,8 @@ const vec2 ACROSS_TEXEL[4] = vec2[4](vec2(-0.125, -0.375), vec2(0.375, -0.125),
 // a texel in front of it: a wall standing on the surface crosses the square, and the light
 // on its one side must not reach the other. One loop and one call site of
 // visible_from_eye(), for llvmpipe's sake.
-float visible_over_texel(vec3 point, vec3 normal, int first_layer, bool over_square) {
+float visible_over_texel(vec3 point, int first_layer, bool over_square) {
+    vec3 normal = receiver_normal;
     int last = over_square && texel_across != vec3(0.0) ? 4 : 0;
     float near = max(length(texel_across), length(texel_along));
     float centre = 0.0, seen = 0.0;
@@ -113,6 +117,7 @@ void main() {
     receiver_surface = decode_surface(material.a);
     vec4 stored_normal = texelFetch(u_normal, texel, 0);
     vec3 normal = decode_normal(stored_normal.xy);
+    receiver_normal = normal;
     // A texel's side on the surface: its area's root (less than a texel edge at chart borders).
     float side = sqrt(position.w);
     int level_split = 1 << decode_level(texelFetch(u_level, texel, 0).r);

@@ -223,15 +223,18 @@ def test_tiny_huge_and_sliver_triangles_with_t_junctions_follow_cos_over_r_squar
     assert ledger.imbalance() < 1e-4
 
 
+@pytest.mark.parametrize("map_size", [0, 256])
 @pytest.mark.parametrize("sun_degrees", [0, 30, 60, 90, 135, 180])
 def test_a_tube_thinner_than_a_texel_shows_the_mean_light_around_it(ctx, gl_clean,
-                                                                   sun_degrees):
+                                                                   sun_degrees, map_size):
     """A 1 cm cable at 10 texels per metre: xatlas charts its round in strips a texel wide,
     so a texel covers a quarter of the round. Under a sun across it, the mean reflected
     radiance is rho / pi * S times the mean of the clamped cosine of the shading normals
     around the round (summed here over the corners' normals interpolated, independently of
     the solver). At one sample's normal per texel the cable came out 0.911-1.057 of that,
-    depending on the sun's direction."""
+    depending on the sun's direction. With a map that resolves the round (256: 4 mm a
+    texel) it came out 0.879-0.940 at three of the directions while a texel's visibility
+    was tested against the plane of the normal it gathered at, not its surface's."""
     sides, albedo, strength = 16, 0.5, 3.0
     vertices, triangles, normals = scenes.smooth_tube(0.005, 1.0, sides, rings=8)
     toward_sun = np.array([0.0, -math.sin(math.radians(sun_degrees)),
@@ -239,7 +242,8 @@ def test_a_tube_thinner_than_a_texel_shows_the_mean_light_around_it(ctx, gl_clea
     scene = Scene(vertices=vertices, triangles=triangles, normals=normals,
                   albedo=np.full((len(triangles), 3), albedo),
                   lights=[SunLight(direction=tuple(-toward_sun), strength=strength)])
-    images, samples, _, _, _ = solve(scene, ctx, texel_density=10)
+    images, samples, _, _, _ = solve(scene, ctx, texel_density=10,
+                                     hemicube_resolution=map_size)
     values = np.concatenate([image[s["occupied"]][:, 0] for image, s in zip(images, samples)])
     areas = np.concatenate([s["area"][s["occupied"]] for s in samples])
     shown = (values * areas).sum() / areas.sum()
