@@ -25,6 +25,11 @@ MAX_COARSER_LEVELS = 2
 # A selection reads back up to this many candidates per shooter it may queue (blocks inside
 # others are dropped later).
 CANDIDATES_PER_SHOOTER = 2
+# Emission shoots from parts as small as this many shots over all emitting texels allow
+# (block_region): direct light is the sharpest, and from one centre per facet a lamp
+# shade's inside, seen through its opening from part of its height, lit what faces the
+# opening as if seen from all of it.
+EMISSION_SHOTS = 128
 
 
 class Candidate(NamedTuple):
@@ -104,17 +109,41 @@ def block_region(state, energy, queue, candidate):
     A block carrying 4^k times a mean block's share of the emitted power or more shoots as
     sub-blocks k levels finer, down to single texels: a strong shooter's visibility from one
     centre would cut its penumbrae into steps (the Cornell box's light, 57 times a mean
-    block; not a furnace's walls, nor an emitter that is half the scene's blocks). With the
-    adaptive shooting level a weak block shoots as a coarser block around it. Blocks are
+    block; not a furnace's walls, nor an emitter that is half the scene's blocks). A block
+    still holding emission shoots at least emission_finer() levels finer, however weak. With
+    the adaptive shooting level a weak block shoots as a coarser block around it. Blocks are
     patches (patch_level): the refinement follows their power, not their texels."""
     level = state.patch_level
     power = candidate.power
     ratio = power * energy.shooting_blocks / max(energy.emitted_scalar, 1e-30)
     finer = min(level, int(math.log(ratio, 4.0))) if ratio >= 4.0 else 0
+    if _holds_emission(state, candidate):
+        finer = max(finer, emission_finer(level, energy.emitting_texels))
     coarser = 0 if finer else _coarser_levels(state.settings, queue, power)
     size = 1 << (level + coarser)
     x, y = candidate.block
     return Region(candidate.page, (x >> coarser) * size, (y >> coarser) * size, size), finer
+
+
+def emission_finer(level, emitting_texels):
+    """How many levels below the patch ``level`` emission shoots: down to single texels
+    where EMISSION_SHOTS cover all ``emitting_texels``, each level up a quarter as many
+    shots (a furnace's emitting walls stay at the patch level)."""
+    finer = level
+    while finer > 0 and emitting_texels > EMISSION_SHOTS * 4 ** (level - finer):
+        finer -= 1
+    return finer
+
+
+def _holds_emission(state, candidate):
+    """Whether the candidate's block holds texels whose emission is not yet shot."""
+    emitting, power = state.pages[candidate.page].emission_left
+    emitting = emitting[power.max(axis=1, initial=0.0) > 0.0]
+    if len(emitting) == 0:
+        return False
+    x, y = candidate.block
+    column, row = emitting % state.packed.width, emitting // state.packed.width
+    return bool(np.any((column >> state.patch_level == x) & (row >> state.patch_level == y)))
 
 
 def _coarser_levels(settings, queue, power):

@@ -116,3 +116,44 @@ def gap_edge_deficit(p, cell=0.1, reach=60.0):
     gap heights."""
     x, lit = gap_edge_profile(p, cell, reach)
     return float((1 - lit[x > 0]).sum() * cell - lit[x < 0].sum() * cell)
+
+
+def traced_irradiance(points, normal, quads, radiance, samples=24):
+    """E / pi at ``points`` (N, 3) with unit ``normal`` from planar ``quads`` glowing with
+    ``radiance`` on both sides, each occluding the others' light: a midpoint quadrature of
+    samples x samples points per quad, each ray traced against every quad's two triangles."""
+    triangles = [(np.asarray(q[0], float), np.asarray(q[i], float), np.asarray(q[i + 1], float))
+                 for q in quads for i in (1, 2)]
+    origin = np.array([t[0] for t in triangles])
+    edge1 = np.array([t[1] - t[0] for t in triangles])
+    edge2 = np.array([t[2] - t[0] for t in triangles])
+    u, v = np.meshgrid((np.arange(samples) + 0.5) / samples, (np.arange(samples) + 0.5) / samples)
+    u, v = u.reshape(-1, 1), v.reshape(-1, 1)
+    values = []
+    for point in np.asarray(points, float):
+        total = 0.0
+        for quad in np.asarray(quads, float):
+            at = ((1 - u) * (1 - v) * quad[0] + u * (1 - v) * quad[1] + u * v * quad[2]
+                  + (1 - u) * v * quad[3])
+            along_u = (1 - v) * (quad[1] - quad[0]) + v * (quad[2] - quad[3])
+            along_v = (1 - u) * (quad[3] - quad[0]) + u * (quad[2] - quad[1])
+            area_normal = np.cross(along_u, along_v) / samples ** 2
+            offset = at - point
+            distance = np.linalg.norm(offset, axis=1)
+            direction = offset / distance[:, None]
+            weight = (np.maximum(direction @ normal, 0.0)
+                      * np.abs((direction * area_normal).sum(axis=1)) / distance ** 2)
+            # Moller-Trumbore against every triangle; the sample's own one is hit at its end.
+            p = np.cross(direction[:, None, :], edge2[None])
+            det = (p * edge1[None]).sum(axis=-1)
+            safe = np.where(np.abs(det) < 1e-12, 1e-12, det)
+            to_point = point - origin
+            bu = (p * to_point[None]).sum(axis=-1) / safe
+            q = np.cross(to_point, edge1)
+            bv = (direction[:, None, :] * q[None]).sum(axis=-1) / safe
+            t = (q[None] * edge2[None]).sum(axis=-1) / safe
+            hit = ((np.abs(det) > 1e-12) & (bu >= 0) & (bv >= 0) & (bu + bv <= 1)
+                   & (t > 0) & (t < distance[:, None] * (1 - 1e-6)))
+            total += float((weight * ~hit.any(axis=1)).sum())
+        values.append(radiance * total / math.pi)
+    return np.array(values)
