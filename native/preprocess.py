@@ -434,7 +434,6 @@ def measure_emission(state):
         energy.emitted_maps += power.sum(axis=0)
         emitting = np.flatnonzero(power.max(axis=1) > 0)
         page.emission_left = (emitting, power[emitting])
-        energy.emitting_texels += len(emitting)
         energy.texel_count += int(np.count_nonzero((area[..., 0] > 0) & (receives > 0)))
     return energy
 

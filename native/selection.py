@@ -94,9 +94,13 @@ def measure(state):
 def regions_to_shoot(state, energy, queue, candidates, count):
     """[(Region, finer levels)] of up to ``count`` candidates, strongest first, skipping a
     block inside one already taken (adaptive levels)."""
+    emitting = _emitting_blocks(state)
+    least_finer = emission_finer(state) if emitting else 0
     chosen = []
     for candidate in candidates:
-        region, finer = block_region(state, energy, queue, candidate)
+        holds_emission = (candidate.page, *candidate.block) in emitting
+        region, finer = block_region(state, energy, queue, candidate,
+                                     least_finer=least_finer if holds_emission else 0)
         if not any(region.overlaps(other) for other, _ in chosen):
             chosen.append((region, finer))
         if len(chosen) == count:
@@ -104,46 +108,49 @@ def regions_to_shoot(state, energy, queue, candidates, count):
     return chosen
 
 
-def block_region(state, energy, queue, candidate):
+def block_region(state, energy, queue, candidate, least_finer=0):
     """The Region of texels a block shoots from, and how many levels finer its parts shoot.
     A block carrying 4^k times a mean block's share of the emitted power or more shoots as
     sub-blocks k levels finer, down to single texels: a strong shooter's visibility from one
     centre would cut its penumbrae into steps (the Cornell box's light, 57 times a mean
-    block; not a furnace's walls, nor an emitter that is half the scene's blocks). A block
-    still holding emission shoots at least emission_finer() levels finer, however weak. With
-    the adaptive shooting level a weak block shoots as a coarser block around it. Blocks are
-    patches (patch_level): the refinement follows their power, not their texels."""
+    block; not a furnace's walls, nor an emitter that is half the scene's blocks); and at
+    least ``least_finer`` levels finer, however weak (emission_finer()). With the adaptive
+    shooting level a weak block shoots as a coarser block around it. Blocks are patches
+    (patch_level): the refinement follows their power, not their texels."""
     level = state.patch_level
     power = candidate.power
     ratio = power * energy.shooting_blocks / max(energy.emitted_scalar, 1e-30)
-    finer = min(level, int(math.log(ratio, 4.0))) if ratio >= 4.0 else 0
-    if _holds_emission(state, candidate):
-        finer = max(finer, emission_finer(level, energy.emitting_texels))
+    finer = max(min(level, int(math.log(ratio, 4.0))) if ratio >= 4.0 else 0, least_finer)
     coarser = 0 if finer else _coarser_levels(state.settings, queue, power)
     size = 1 << (level + coarser)
     x, y = candidate.block
     return Region(candidate.page, (x >> coarser) * size, (y >> coarser) * size, size), finer
 
 
-def emission_finer(level, emitting_texels):
-    """How many levels below the patch ``level`` emission shoots: down to single texels
-    where EMISSION_SHOTS cover all ``emitting_texels``, each level up a quarter as many
-    shots (a furnace's emitting walls stay at the patch level)."""
+def emission_finer(state):
+    """How many levels below the patch level a block holding emission shoots: down to single
+    texels where EMISSION_SHOTS cover all the scene's emitting texels, each level up a
+    quarter as many shots (a furnace's emitting walls stay at the patch level)."""
+    # emission_left keeps its texels as they shoot (their power zeroed): all that emitted.
+    emitting_texels = sum(len(page.emission_left[0]) for page in state.pages)
+    level = state.patch_level
     finer = level
     while finer > 0 and emitting_texels > EMISSION_SHOTS * 4 ** (level - finer):
         finer -= 1
     return finer
 
 
-def _holds_emission(state, candidate):
-    """Whether the candidate's block holds texels whose emission is not yet shot."""
-    emitting, power = state.pages[candidate.page].emission_left
-    emitting = emitting[power.max(axis=1, initial=0.0) > 0.0]
-    if len(emitting) == 0:
-        return False
-    x, y = candidate.block
-    column, row = emitting % state.packed.width, emitting // state.packed.width
-    return bool(np.any((column >> state.patch_level == x) & (row >> state.patch_level == y)))
+def _emitting_blocks(state):
+    """{(page, block x, block y)} of the patches whose texels hold emission not yet shot."""
+    blocks = set()
+    width, level = state.packed.width, state.patch_level
+    for index, page in enumerate(state.pages):
+        emitting, power = page.emission_left
+        left = emitting[power.max(axis=1, initial=0.0) > 0.0]
+        blocks.update((index, int(x), int(y)) for x, y in
+                      np.unique(np.stack([(left % width) >> level, (left // width) >> level],
+                                         axis=1), axis=0))
+    return blocks
 
 
 def _coarser_levels(settings, queue, power):

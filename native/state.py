@@ -97,7 +97,6 @@ class Energy:
     emitted_maps: np.ndarray    # what the emitting texels hold
     texel_count: int            # receiving texels
     shooting_blocks: int        # patches (blocks at the patch level) holding texels
-    emitting_texels: int = 0    # texels holding emission at the start
     emitted: np.ndarray = None  # the texels' and the lights'
     emitted_scalar: float = 0.0
     shot_power: np.ndarray = field(default_factory=lambda: np.zeros(3))
