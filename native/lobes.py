@@ -7,35 +7,37 @@ directions their unshot light came from, weighted by the irradiance each brought
 (receiver_common.glsl out_incoming). A shooter reads their mean as light from one direction d
 mixed with light from all round (an even radiance: its directions' mean, so weighted, is two
 thirds of the normal, inwards): the share beta from d that gives that mean. The glossy share of the light from all round leaves as
-if diffuse (a rough mirror sends on an even radiance evenly), that of d in a lobe
+if diffuse (a rough mirror sends on an even radiance evenly), that of d in a lobe shaped as
+the microfacet reflection Cycles' glossy layers have,
 
-    L(w) = scale * max(w . r, 0) ^ exponent      (in units of the radiance it shoots)
+    L(w) = scale * D(h) G1(w) F(h . l) / (w . n)      (in units of the radiance it shoots)
 
-about d's mirror direction r, scaled so that it sends the power a diffuse shooter of that
-radiance sends. The exponent follows the roughness, as a Phong lobe about the mirror direction
-matches GGX of alpha = roughness^2 (a lobe twice as wide as the half-vector's); the glossy
-share of a rough surface (roughness 1) leaves as if diffuse.
+for light from l (d reversed), h the half vector of l and w: GGX's distribution D of alpha =
+roughness^2, Smith's masking G1 and Fresnel's term F of a dielectric reflecting the layers'
+albedo at normal incidence; scaled so that it sends the power a diffuse shooter of that radiance sends
+(how much that is: rise()). Light that comes in at a slant leaves it mostly nearer the
+horizon than its mirror direction (the Fresnel term and GGX's long tail); a Phong lobe about
+the mirror direction sent a quarter to a half of it below 20 degrees. A rough surface
+(roughness 1) sends its glossy share as if diffuse.
 """
 from dataclasses import dataclass
+import functools
 import math
 
 import numpy as np
 
-# Samples of the lower hemisphere (uniform in solid angle), for what of a lobe tilted
-# towards the horizon falls below it.
-HORIZON_SAMPLES = 2048
-# The sharpest lobe (roughness about 0.33): receive_patch.frag samples a shooter's quad at four
-# points, and sharper lobes from them light four spots where the quad's mirror image lights an
-# area (tests/test_glossy_lobes.py).
-MOST_EXPONENT = 30.0
+# Samples of the upper hemisphere (uniform in solid angle) for a lobe's normalization.
+HEMISPHERE_SAMPLES = 32768
+# The sharpest lobe: receive_patch.frag samples a shooter's quad at four points, and sharper
+# lobes from them light four spots where the quad's mirror image lights an area
+# (tests/test_glossy_lobes.py).
+SMOOTHEST = 0.36
 # rise(): (1 - cos)^2.5 times this has a cosine-weighted mean of 1 over the hemisphere; it
 # gives Cycles' default layer 1.33, 2.56 and 4.04 times its normal-incidence albedo at cos 0.65,
 # 0.35 and 0.15 (measured 1.36, 2.54, 3.64).
 RISE_SHAPE = 7.875
 # white_sky_albedo(): how fast roughness damps the rise (fitted at roughness 0.2, 0.5, 1).
 RISE_DAMPING = 2.2
-# Under this exponent a lobe is as good as diffuse: the glossy share leaves as if diffuse.
-LEAST_EXPONENT = 0.5
 
 
 def needed(scene):
@@ -66,36 +68,54 @@ def has_glossy(scene, triangles=None):
     return False
 
 
-def _lower_hemisphere(count):
+def _upper_hemisphere(count):
     index = np.arange(count) + 0.5
-    z = -index / count                      # uniform in solid angle over z in (-1, 0)
+    z = index / count                       # uniform in solid angle over z in (0, 1)
     ring = np.sqrt(1.0 - z * z)
     azimuth = math.pi * (3.0 - math.sqrt(5.0)) * index
     return np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), z], axis=1)
 
 
-_LOWER = _lower_hemisphere(HORIZON_SAMPLES)
+_UPPER = _upper_hemisphere(HEMISPHERE_SAMPLES)
 
 
 @dataclass
 class Lobe:
     """A shooter's glossy lobe, as receive_patch.frag reads it."""
     axis: np.ndarray        # (3,) the mirror direction, world space
-    exponent: float
+    alpha: float            # GGX's width: the roughness squared
+    fresnel_f0: float       # the layers' albedo at normal incidence, for the Fresnel term
+    #                         in its shape (1: without the Fresnel rise)
     share: np.ndarray       # (3,) the glossy share of the radiance it shoots
-    scale: float            # the lobe's radiance along its axis over the radiance shot
+    scale: float            # the lobe's shape times this is its radiance over the radiance shot
 
 
 def diffuse():
     """The lobe of a shooter without glossy light: everything leaves as if diffuse."""
-    return Lobe(axis=np.array([0.0, 0.0, 1.0]), exponent=0.0, share=np.zeros(3), scale=1.0)
+    return Lobe(axis=np.array([0.0, 0.0, 1.0]), alpha=1.0, fresnel_f0=1.0, share=np.zeros(3),
+                scale=1.0)
 
 
-def roughness_exponent(roughness):
-    """The Phong exponent about the mirror direction of GGX of alpha = roughness^2: a quarter
-    of the half-vector's 2 / alpha^2 - 2 (the mirror direction turns twice as far)."""
-    alpha2 = max(roughness, 1e-4) ** 4
-    return min(max(2.0 / alpha2 - 2.0, 0.0) / 4.0, MOST_EXPONENT)
+def lobe_alpha(roughness):
+    """GGX's alpha for a layer of ``roughness``, no sharper than SMOOTHEST's."""
+    return max(roughness, SMOOTHEST) ** 2
+
+
+def shape(out, axis, normal, alpha, fresnel_f0):
+    """(N,) a lobe's radiance towards the directions ``out`` (N, 3), before its scale:
+    D(h) G1(out) F(h . l) / (out . n) for light from l, the mirror of ``axis`` about
+    ``normal`` (receive_patch.frag lobe_shape() is the same)."""
+    cos_out = out @ normal
+    toward_light = 2.0 * float(axis @ normal) * normal - axis
+    half = out + toward_light
+    half /= np.linalg.norm(half, axis=-1, keepdims=True)
+    alpha2 = alpha * alpha
+    cos_half = np.clip(half @ normal, 0.0, 1.0)
+    distribution = alpha2 / (math.pi * (cos_half * cos_half * (alpha2 - 1.0) + 1.0) ** 2)
+    safe = np.maximum(cos_out, 1e-6)
+    masking = 2.0 / (1.0 + np.sqrt(1.0 + alpha2 * (1.0 - safe * safe) / (safe * safe)))
+    fresnel = dielectric_fresnel(np.clip(half @ toward_light, 0.0, 1.0), fresnel_f0)
+    return np.where(cos_out > 0.0, distribution * masking * fresnel / safe, 0.0)
 
 
 def from_one_direction(mean, normal):
@@ -151,21 +171,25 @@ def reflect(normal, incoming, taken, reflectance, glossy, roughness, *, fresnel)
     down = float(travel @ normal)
     if lobe_share.max() <= 0.0 or down >= 0.0:
         return Reflection(power=power, lobe=diffuse())
-    # The texels' roughness weighted by the power each sends into the lobe.
-    exponent = roughness_exponent(float(np.average(roughness, weights=lobed.sum(axis=1))))
-    if exponent < LEAST_EXPONENT:
+    # The texels' roughness and albedo weighted by the power each sends into the lobe.
+    weights = lobed.sum(axis=1)
+    mean_roughness = float(np.average(roughness, weights=weights))
+    if mean_roughness >= 1.0:
         return Reflection(power=power, lobe=diffuse())
+    alpha = lobe_alpha(mean_roughness)
+    fresnel_f0 = (min(max(float(np.average(glossy.mean(axis=1), weights=weights)), 1e-3), 1.0)
+                  if fresnel else 1.0)
     axis = travel - 2.0 * down * normal
     return Reflection(power=power, lobe=Lobe(
-        axis=axis, exponent=exponent, share=lobe_share,
-        scale=math.pi / lobe_integral(float(axis @ normal), exponent)))
+        axis=axis, alpha=alpha, fresnel_f0=fresnel_f0, share=lobe_share,
+        scale=math.pi / lobe_integral(float(axis @ normal), alpha, fresnel_f0)))
 
 
 def cell_lobes(lobe, normal, incoming):
     """(cells, 4) per cell of a shooter of ``normal`` its lobe's axis (xyz) and scale (w):
     about the mirror direction of the light its texels took, ``incoming`` (cells, 4) their
     directions summed as reflect() reads them (zero where the scene keeps none), with the
-    shooter's ``lobe``'s exponent. A block's one axis, the mirror of its texels' mean, sent a
+    shooter's ``lobe``'s width and Fresnel term. A block's one axis, the mirror of its texels' mean, sent a
     lamp's light off a floor block the same way from its near and its far side, where each
     side mirrors the lamp its own way: a wall standing on the floor got 0.82 of it. The
     shooter's axis where a cell took no light from one direction."""
@@ -179,7 +203,8 @@ def cell_lobes(lobe, normal, incoming):
         down = float(travel @ normal)
         if beta > 0.0 and down < 0.0:
             axis = travel - 2.0 * down * normal
-            cell[:] = [*axis, math.pi / lobe_integral(float(axis @ normal), lobe.exponent)]
+            cell[:] = [*axis, math.pi / lobe_integral(float(axis @ normal), lobe.alpha,
+                                                      lobe.fresnel_f0)]
     return cells
 
 
@@ -200,12 +225,29 @@ def rise(cosine, ratio):
     return 1.0 + (ratio - 1.0) * RISE_SHAPE * (1.0 - cosine) ** 2.5
 
 
-def lobe_integral(height, exponent):
-    """The integral over the hemisphere above a surface of max(w . r, 0)^exponent times the
-    cosine to its normal, for an axis r at ``height`` (r . n) above it: over the whole sphere
-    (by symmetry about r) less what lies below the horizon, where the cosine is negative."""
-    whole = height * 2.0 * math.pi / (exponent + 2.0)
+def dielectric_fresnel(cosine, normal_reflectance):
+    """(N,) Fresnel's reflectance of unpolarized light at ``cosine`` off a dielectric whose
+    reflectance at normal incidence is ``normal_reflectance`` (its index of refraction from
+    that): Schlick's approximation gives the default layer's 0.04 a fifth too little at 60
+    degrees. 1 for a layer that reflects everything."""
+    if normal_reflectance >= 1.0:
+        return np.ones_like(cosine)
+    root = math.sqrt(normal_reflectance)
+    eta = (1.0 + root) / (1.0 - root)
+    g = np.sqrt(eta * eta - 1.0 + cosine * cosine)
+    return 0.5 * ((g - cosine) / (g + cosine)) ** 2 * (
+        1.0 + ((cosine * (g + cosine) - 1.0) / (cosine * (g - cosine) + 1.0)) ** 2)
+
+
+def lobe_integral(height, alpha, fresnel_f0):
+    """The integral over the hemisphere above a surface of a lobe's shape() times the cosine
+    to its normal, for an axis at ``height`` (axis . n) above it."""
+    return _lobe_integral(round(height, 3), round(alpha, 3), round(fresnel_f0, 3))
+
+
+@functools.lru_cache(maxsize=4096)
+def _lobe_integral(height, alpha, fresnel_f0):
+    normal = np.array([0.0, 0.0, 1.0])
     axis = np.array([math.sqrt(max(1.0 - height * height, 0.0)), 0.0, height])
-    along = np.maximum(_LOWER @ axis, 0.0)
-    below = float((along ** exponent * _LOWER[:, 2]).mean()) * 2.0 * math.pi
-    return whole - below
+    values = shape(_UPPER, axis, normal, alpha, fresnel_f0) * _UPPER[:, 2]
+    return float(values.mean()) * 2.0 * math.pi

@@ -151,7 +151,8 @@ def set_patch_uniforms(state, shooters, views):
                                              for cell in shooter.cell_radiance])
     _set_array(program, "u_emits", [int(shooter.emits) for shooter in shooters])
     set_uniform(program, "u_any_emits", int(any(shooter.emits for shooter in shooters)))
-    _set_array(program, "u_lobe_exponents", [shooter.lobe.exponent for shooter in shooters])
+    _set_array(program, "u_lobe_shapes", [(shooter.lobe.alpha, shooter.lobe.fresnel_f0)
+                                          for shooter in shooters])
     _set_array(program, "u_lobe_shares", [tuple(shooter.lobe.share) for shooter in shooters])
     _set_array(program, "u_cell_lobes", [tuple(cell) for shooter in shooters
                                          for cell in shooter.cell_lobes])

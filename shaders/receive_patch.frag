@@ -31,7 +31,8 @@ uniform int u_any_emits;                  // 1: some shooter of the pass emits
 uniform vec4 u_surface_extents[MOST_SHOOTERS];  // u min, u max, v min, v max of the shooter's
                                                 // surface along its frame's tangent and
                                                 // bitangent, from its centre
-uniform float u_lobe_exponents[MOST_SHOOTERS];  // each shooter's glossy lobe's
+uniform vec2 u_lobe_shapes[MOST_SHOOTERS];   // each shooter's glossy lobe's GGX alpha and
+                                             // Fresnel F0 (lobes.Lobe)
 uniform vec3 u_lobe_shares[MOST_SHOOTERS];      // the glossy share of the radiance it shoots
 // Each cell's lobe: its axis (xyz) and scale (w), its radiance along the axis over the mean.
 uniform vec4 u_cell_lobes[SHOOTER_CELLS * SHOOTER_CELLS * MOST_SHOOTERS];
@@ -44,7 +45,7 @@ int shooter;
 vec3 shot_quad[4];
 vec3 shot_centre;
 vec4 shot_extent;
-float shot_exponent;
+vec2 shot_lobe_shape;
 vec3 shot_lobe_share;
 
 // A batch of one is known here: the pass then compiles without the loop over shooters.
@@ -63,7 +64,7 @@ bool select_shooter(int index) {
     for (int i = 0; i < 4; ++i) shot_quad[i] = u_quads[4 * index + i];
     shot_centre = u_centres[index];
     shot_extent = u_surface_extents[index];
-    shot_exponent = u_lobe_exponents[index];
+    shot_lobe_shape = u_lobe_shapes[index];
     shot_lobe_share = u_lobe_shares[index];
     u_eye = u_eyes[index];
     u_frame = u_frames[index];
@@ -130,13 +131,44 @@ vec3 quad_point(float s, float t) {
     return mix(mix(shot_quad[0], shot_quad[1], s), mix(shot_quad[3], shot_quad[2], s), t);
 }
 
+// Fresnel's reflectance at 'cosine' of a dielectric reflecting 'normal_reflectance' at normal
+// incidence (lobes.dielectric_fresnel()).
+float dielectric_fresnel(float cosine, float normal_reflectance) {
+    if (normal_reflectance >= 1.0) return 1.0;
+    float root = sqrt(normal_reflectance);
+    float eta = (1.0 + root) / (1.0 - root);
+    float g = sqrt(eta * eta - 1.0 + cosine * cosine);
+    float outer = (g - cosine) / (g + cosine);
+    float inner = (cosine * (g + cosine) - 1.0) / (cosine * (g - cosine) + 1.0);
+    return 0.5 * outer * outer * (1.0 + inner * inner);
+}
+
+// The lobe about 'axis' towards 'travel', before its scale: GGX's D(h) G1(travel)
+// F(h . l) / cos for light from l, the axis's mirror (lobes.shape()).
+float lobe_shape(vec3 axis, vec3 travel) {
+    vec3 n = u_frame[2];
+    float cos_out = dot(travel, n);
+    if (cos_out <= 0.0) return 0.0;
+    vec3 toward_light = 2.0 * dot(axis, n) * n - axis;
+    vec3 half_vector = normalize(travel + toward_light);
+    float alpha2 = shot_lobe_shape.x * shot_lobe_shape.x;
+    float cos_half = clamp(dot(half_vector, n), 0.0, 1.0);
+    float spread = cos_half * cos_half * (alpha2 - 1.0) + 1.0;
+    float distribution = alpha2 / (PI * spread * spread);
+    cos_out = max(cos_out, 1e-6);
+    float masking = 2.0 / (1.0 + sqrt(1.0 + alpha2 * (1.0 - cos_out * cos_out)
+                                                / (cos_out * cos_out)));
+    float fresnel = dielectric_fresnel(clamp(dot(half_vector, toward_light), 0.0, 1.0),
+                                       shot_lobe_shape.y);
+    return distribution * masking * fresnel / cos_out;
+}
+
 // What the shooter's 'cell' sends along 'travel' over what a diffuse cell of its radiance
 // would: its glossy share in its lobe (lobes.cell_lobes), the rest evenly.
 vec3 lobe_factor(int cell, vec3 travel) {
 #if GLOSSY_LOBES
     vec4 lobe = u_cell_lobes[shooter * SHOOTER_CELLS * SHOOTER_CELLS + cell];
-    float along = dot(travel, lobe.xyz);
-    float radiance = along > 0.0 ? lobe.w * exp2(shot_exponent * log2(along)) : 0.0;
+    float radiance = lobe.w * lobe_shape(lobe.xyz, travel);
     return 1.0 + shot_lobe_share * (radiance - 1.0);
 #else
     return vec3(1.0);
