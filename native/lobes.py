@@ -14,11 +14,11 @@ the microfacet reflection Cycles' glossy layers have,
 
 for light from l (d reversed), h the half vector of l and w: GGX's distribution D of alpha =
 roughness^2, Smith's masking G1 and Fresnel's term F of a dielectric reflecting the layers'
-albedo at normal incidence; scaled so that it sends the power a diffuse shooter of that radiance sends
-(how much that is: rise()). Light that comes in at a slant leaves it mostly nearer the
-horizon than its mirror direction (the Fresnel term and GGX's long tail); a Phong lobe about
-the mirror direction sent a quarter to a half of it below 20 degrees. A rough surface
-(roughness 1) sends its glossy share as if diffuse.
+albedo at normal incidence; scaled so that it sends the power a diffuse shooter of that
+radiance sends (how much that is: rise()). Light that comes in at a slant leaves it mostly
+nearer the horizon than its mirror direction (the Fresnel term and GGX's long tail): a Phong
+lobe about the mirror direction sent a quarter to a half of what GGX sends below 20
+degrees. A rough surface (roughness 1) sends its glossy share as if diffuse.
 """
 from dataclasses import dataclass
 import functools
@@ -189,10 +189,10 @@ def cell_lobes(lobe, normal, incoming):
     """(cells, 4) per cell of a shooter of ``normal`` its lobe's axis (xyz) and scale (w):
     about the mirror direction of the light its texels took, ``incoming`` (cells, 4) their
     directions summed as reflect() reads them (zero where the scene keeps none), with the
-    shooter's ``lobe``'s width and Fresnel term. A block's one axis, the mirror of its texels' mean, sent a
-    lamp's light off a floor block the same way from its near and its far side, where each
-    side mirrors the lamp its own way: a wall standing on the floor got 0.82 of it. The
-    shooter's axis where a cell took no light from one direction."""
+    shooter's ``lobe``'s width and Fresnel term. A block's one axis, the mirror of its
+    texels' mean, sent a lamp's light off a floor block the same way from its near and its
+    far side, where each side mirrors the lamp its own way: a wall standing on the floor got
+    0.82 of it. The shooter's axis where a cell took no light from one direction."""
     cells = np.tile([*lobe.axis, lobe.scale], (len(incoming), 1))
     if lobe.share.max() <= 0.0:
         return cells
