@@ -34,7 +34,8 @@ uniform vec4 u_surface_extents[MOST_SHOOTERS];  // u min, u max, v min, v max of
 uniform vec2 u_lobe_shapes[MOST_SHOOTERS];   // each shooter's glossy lobe's GGX alpha and
                                              // Fresnel F0 (lobes.Lobe)
 uniform vec3 u_lobe_shares[MOST_SHOOTERS];      // the glossy share of the radiance it shoots
-// Each cell's lobe: its axis (xyz) and scale (w), its radiance along the axis over the mean.
+// Each cell's lobe: its axis (xyz) and scale (w): its shape (lobe_shape()) times the scale is
+// its radiance over the mean.
 uniform vec4 u_cell_lobes[SHOOTER_CELLS * SHOOTER_CELLS * MOST_SHOOTERS];
 uniform vec3 u_eyes[MOST_SHOOTERS];       // where each shooter's map was drawn from
 uniform mat3 u_frames[MOST_SHOOTERS];     // and its frame (columns t, b, n)
