@@ -96,8 +96,10 @@ def measure(state):
 def regions_to_shoot(state, energy, queue, candidates, count):
     """[(Region, finer levels)] of up to ``count`` candidates, strongest first, skipping a
     block inside one already taken (adaptive levels)."""
-    emitting = _emitting_blocks(state)
-    least_finer = emission_finer(state) if emitting else 0
+    least_finer = emission_finer(state)
+    # Where emission shoots at the patch level anyway (a furnace's walls), which blocks
+    # hold it does not matter.
+    emitting = _emitting_blocks(state) if least_finer else set()
     chosen = []
     for candidate in candidates:
         holds_emission = (candidate.page, *candidate.block) in emitting
