@@ -145,6 +145,7 @@ class BakeJob:
             stats.shots = progress.shots
             stats.unshot = 100.0 * progress.unshot_fraction
             stats.stopped_at_shot_limit = progress.stopped_at_shot_limit
+            stats.diverged = progress.diverged
             stats.pages = len(images)
             stats.seconds = time.perf_counter() - self.started
             stats.valid = True
@@ -220,6 +221,15 @@ def shot_limit_message(stats, threshold):
         return None
     return (f"Luxel stopped at the shot limit ({stats.shots:,} shots) with "
             f"{stats.unshot:.2f} % unshot, above the threshold of {100.0 * threshold:.2f} %")
+
+
+def divergence_message(stats):
+    """What a bake that stopped because its unshot power rose says (None otherwise)."""
+    if not (stats.valid and stats.diverged):
+        return None
+    return (f"Luxel's shots made light after {stats.shots:,} shots (the unshot power rose): "
+            f"the bake stopped and kept the lightmaps from {stats.unshot:.2f} % unshot; "
+            "please report the scene")
 
 
 @contextmanager

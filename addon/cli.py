@@ -10,12 +10,14 @@ import bpy
 
 from ..native import LuxelError
 from ..native.settings import add_options, given_settings
-from .bake import BakeJob, shot_limit_message
+from .bake import BakeJob, divergence_message, shot_limit_message
 from .compare import compare_with_cycles, summary_lines
 from .writeback import remove_lightmaps
 
 EXIT_FAILED = 1
 EXIT_USAGE = 2
+# The lightmaps were written, but from the bake's last checkpoint: its shots made light.
+EXIT_DIVERGED = 3
 
 
 class _UsageError(Exception):
@@ -125,6 +127,10 @@ def _bake(args):
     if args.save:
         bpy.ops.wm.save_mainfile()
         print(f"luxel: saved {bpy.data.filepath}", flush=True)
+    diverged = divergence_message(stats)
+    if diverged:
+        print(f"luxel: {diverged}", file=sys.stderr, flush=True)
+        return EXIT_DIVERGED
     return 0
 
 

@@ -6,7 +6,7 @@ import bpy
 from bpy.props import StringProperty
 
 from ..native import LuxelError
-from .bake import BakeJob, shot_limit_message
+from .bake import BakeJob, divergence_message, shot_limit_message
 from .compare import compare_with_cycles, summary_lines
 from .writeback import remove_lightmaps
 
@@ -107,6 +107,9 @@ class LUXEL_OT_bake(bpy.types.Operator):
         if stopped:
             self.report({'WARNING'}, f"{stopped}: raise Max Shots (Render properties > Luxel "
                                      "Lightmaps) and bake again")
+        diverged = divergence_message(stats)
+        if diverged:
+            self.report({'WARNING'}, diverged)
         return {'FINISHED'}
 
     def _fail(self, job, error):

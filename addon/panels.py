@@ -90,6 +90,10 @@ class LUXEL_PT_render_stats(_RenderSubPanel, bpy.types.Panel):
             column.label(text=f"Stopped at the shot limit: {stats.unshot:.2f} % unshot",
                          icon='ERROR')
             column.label(text="Raise Max Shots and bake again")
+        if stats.diverged:
+            column = self.layout.column(align=True)
+            column.label(text="Stopped: the unshot power rose", icon='ERROR')
+            column.label(text=f"Kept the lightmaps from {stats.unshot:.2f} % unshot")
 
 
 class LUXEL_PT_render_compare(_RenderSubPanel, bpy.types.Panel):

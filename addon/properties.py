@@ -26,6 +26,9 @@ class LuxelBakeStats(bpy.types.PropertyGroup):
     stopped_at_shot_limit: BoolProperty(name="Stopped at the Shot Limit",
                                         description="The bake stopped at Max Shots with more "
                                         "than the threshold still unshot")
+    diverged: BoolProperty(name="Diverged",
+                           description="The unshot power rose (shots made light): the bake "
+                           "stopped and kept the lightmaps of its last checkpoint")
     pages: IntProperty(name="Pages", description="Lightmap images written")
     valid: BoolProperty(name="Baked", description="A bake has finished in this scene")
 

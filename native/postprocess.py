@@ -1,7 +1,8 @@
 """Postprocess: the lightmaps from the maps (rho * (E / pi + ambient) on receiving texels,
 moved back to the atlas's layout, the gutter around charts filled), the ambient term that
 stands for the light not yet shot, the energy ledger from sums over the maps, and the texels'
-sample points."""
+sample points; and the checkpoints a bake goes back to where its unshot power rises."""
+import copy
 from dataclasses import dataclass
 import math
 
@@ -15,6 +16,15 @@ MAX_MEAN_ALBEDO = 0.999
 # brought gets the ambient term in proportion: the little that leaks past a wall's edge into
 # a sealed room does not carry the lit room's ambient light with it.
 FULLY_REACHED_SHARE = 0.01
+# The unshot power only falls: a shot takes its shooter's and returns at most the
+# reflectance's share of it. Past this share above its least, far beyond the GPU's rounding,
+# shots are making light, and the bake stops (Solver, Progress.diverged).
+UNSHOT_RISE = 0.05
+# A new checkpoint each time the unshot fraction falls to this share of the last one's: a
+# few dozen copies of the maps in a bake, not one per selection.
+CHECKPOINT_FALL = 0.8
+# The maps a checkpoint keeps: what result() and ledger() read that shots change.
+CHECKPOINT_MAPS = ("irradiance", "unshot", "incoming")
 
 
 @dataclass
@@ -214,3 +224,46 @@ def fill_gutter(image, passes):
             count += use
         image[ys, xs, :3] = total / count[:, None]
         filled[ys, xs] = True
+
+
+@dataclass
+class Checkpoint:
+    """A bake as it stood at a selection (nothing queued), to go back to: per page its maps
+    (CHECKPOINT_MAPS) and emission not yet shot, the lights still pending, the energy
+    totals, the thin gaps' ledger and the ambient term's starts."""
+    unshot_fraction: float
+    shots: int
+    maps: list
+    emission_left: list
+    pending: list
+    energy: object
+    gap_totals: dict
+    reflected_starts: list
+
+
+GAP_TOTALS = ("shown_received", "shown_absorbed", "arrived", "escaped")
+
+
+def checkpoint(state, energy, gaps, pending, reflected_starts, shots, unshot_fraction):
+    """A Checkpoint of the bake now: the maps read back to the CPU, the totals copied."""
+    return Checkpoint(
+        unshot_fraction=unshot_fraction, shots=shots,
+        maps=[{name: page.textures[name].read() for name in CHECKPOINT_MAPS
+               if name in page.textures} for page in state.pages],
+        emission_left=[(page.emission_left[0], page.emission_left[1].copy())
+                       for page in state.pages],
+        pending=list(pending), energy=copy.deepcopy(energy),
+        gap_totals={name: getattr(gaps, name).copy() for name in GAP_TOTALS},
+        reflected_starts=list(reflected_starts))
+
+
+def restore(state, kept, gaps):
+    """Put the maps and the thin gaps' ledger back as ``kept`` holds them; the caller takes
+    its energy totals, pending lights and starts."""
+    for page, maps in zip(state.pages, kept.maps):
+        for name, data in maps.items():
+            page.textures[name].write(data)
+    for page, left in zip(state.pages, kept.emission_left):
+        page.emission_left = (left[0], left[1].copy())
+    for name, value in kept.gap_totals.items():
+        setattr(gaps, name, value.copy())

@@ -53,14 +53,17 @@ class Progress:
     unshot_fraction: float
     seconds: float
     converged: bool          # the unshot fraction reached the threshold (or nothing is left)
-    finished: bool           # converged, or stopped at the shot limit
+    finished: bool           # converged, stopped at the shot limit, or diverged
     texels: int
     shot_limit: int          # Settings.max_shots, or the automatic limit where it is 0
+    # The unshot power rose (shots made light): the bake stopped and went back to the last
+    # checkpoint, whose unshot fraction this reports.
+    diverged: bool = False
 
     @property
     def stopped_at_shot_limit(self):
         """Finished at the shot limit with more than the threshold still unshot."""
-        return self.finished and not self.converged
+        return self.finished and not self.converged and not self.diverged
 
 
 @dataclass
@@ -114,7 +117,10 @@ class Solver:
         self.shots = 0
         self.converged = False
         self.finished = False
+        self.diverged = False
         self._unshot_fraction = 1.0
+        self._least_unshot = math.inf   # W, the mean of RGB: what the rise is measured from
+        self._checkpoint = None
         self._owns_context = ctx is None
         self.ctx = None
         self._gl = None
@@ -194,7 +200,8 @@ class Solver:
     @property
     def progress(self):
         return Progress(self.shots, self._unshot_fraction, time.perf_counter() - self._started,
-                        self.converged, self.finished, self.texel_count, self.shot_limit)
+                        self.converged, self.finished, self.texel_count, self.shot_limit,
+                        diverged=self.diverged)
 
     def result(self):
         """Current lightmaps, one float32 (height, width, 4) array per atlas page, row 0 at
@@ -383,7 +390,7 @@ class Solver:
         pending lights, or as many patches. False once converged."""
         queue = self._queue
         candidates = self._measure_unshot()
-        if self.converged:
+        if self.converged or self.diverged:
             return False
         count = min(self.settings.shooters_per_selection, self.shot_limit - self.shots)
         if queue.pending:
@@ -402,15 +409,42 @@ class Solver:
 
     def _measure_unshot(self):
         """Measure the unshot fraction, and whether it converged; returns the candidate
-        blocks to shoot."""
+        blocks to shoot. Where it rose (shots made light), go back to the last checkpoint
+        and stop: diverged, nothing to shoot."""
         queue, energy = self._queue, self._energy
         candidates, total = self._timed("selection", selection.measure, self._state)
         pending = sum(float(np.mean(self._light_power(light))) for light in queue.pending)
-        self._unshot_fraction = (total + pending) / max(
-            energy.emitted_scalar - energy.sunlight_missed, 1e-30)
+        unshot = total + pending
+        # The power, not the fraction: the sun's light that misses the scene leaves the
+        # fraction's denominator as it shoots.
+        if unshot > (1.0 + postprocess.UNSHOT_RISE) * self._least_unshot:
+            self._go_back()
+            return []
+        self._least_unshot = min(self._least_unshot, unshot)
+        self._unshot_fraction = unshot / max(energy.emitted_scalar - energy.sunlight_missed,
+                                             1e-30)
         self.converged = (self._unshot_fraction <= self.settings.threshold
                           or (not queue.pending and not candidates))
+        kept = self._checkpoint
+        if not self.converged and (kept is None or self._unshot_fraction
+                                   <= postprocess.CHECKPOINT_FALL * kept.unshot_fraction):
+            self._checkpoint = self._timed(
+                "selection", postprocess.checkpoint, self._state, energy, self._gaps,
+                queue.pending, self._reflected_starts, self.shots, self._unshot_fraction)
         return candidates
+
+    def _go_back(self):
+        """Back to the last checkpoint, finished and diverged: its lightmaps, ledger and
+        unshot fraction are the bake's."""
+        kept = self._checkpoint
+        postprocess.restore(self._state, kept, self._gaps)
+        self._energy = kept.energy
+        self._queue.pending = list(kept.pending)
+        self._queue.shots = []
+        self._reflected_starts = list(kept.reflected_starts)
+        self._unshot_fraction = kept.unshot_fraction
+        self.converged = False
+        self.diverged = self.finished = True
 
     def _reflected_start_due(self):
         """Whether to keep a new ReflectedStart: once the emission left unshot is within the

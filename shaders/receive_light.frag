@@ -28,7 +28,7 @@ bool pass_takes_squares() { return u_hemisphere == 0; }
 
 bool select_shooter(int index) { return true; }
 
-vec3 irradiance_at(vec3 point, vec3 normal, float near_side) {
+vec3 irradiance_at(vec3 point, vec3 normal, float near_side, float square_side) {
     vec3 irradiance;
     if (u_light_kind == 2) {
         float cos_r = -dot(normal, u_frame[2]);

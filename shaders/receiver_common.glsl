@@ -93,9 +93,10 @@ float visible_over_texel(vec3 point, int first_layer, bool over_square) {
     return last > 0 ? seen / float(last) : centre;
 }
 
-// The irradiance at 'point'; 'near_side' > 0: the point is the sample point of a texel of that
-// side in the shooter's near field.
-vec3 irradiance_at(vec3 point, vec3 normal, float near_side);
+// The irradiance at 'point', which stands for a square of side 'square_side' of its texel;
+// 'near_side' > 0: the point is the sample point of a texel of that side in the shooter's
+// near field.
+vec3 irradiance_at(vec3 point, vec3 normal, float near_side, float square_side);
 // The direction the current shooter's light travels in to reach 'point'.
 vec3 travel_direction(vec3 point);
 // Whether the texel lies so close to the shooter that it gathers at its sample point only.
@@ -167,7 +168,7 @@ void main() {
                                   : spread * mean_normal + (k % 2 == 0 ? turn : -turn);
             gathered += irradiance_at(position.xyz + side * (offset.x * tangent
                                                              + offset.y * bitangent),
-                                      gathering_normal, near_side);
+                                      gathering_normal, near_side, side / float(split));
         }
         gathered /= float(split * split * normals);
         irradiance += gathered;

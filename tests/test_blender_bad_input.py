@@ -740,3 +740,53 @@ def test_a_converged_bake_does_not_mention_the_shot_limit(capsys):
     # The set-up's stages, in order, before the shots.
     assert (out.index("Luxel: charting") < out.index("Luxel: preprocessing")
             < out.index(" triangles, ") < out.index("luxel: done"))
+
+
+def pixel_values(image):
+    values = np.empty(len(image.pixels), dtype=np.float32)
+    image.pixels.foreach_get(values)
+    return values.reshape(-1, 4)
+
+
+def test_a_bake_whose_shots_make_light_keeps_its_last_good_lightmaps_and_says_so(
+        capsys, monkeypatch):
+    """Shots that deliver their light twice after the first 150 (as a defect would): the
+    unshot power rises, and the bake stops with the lightmaps of its last checkpoint. The
+    operator warns, the panel says so, and the command line exits 3 with one line on stderr;
+    the lightmaps written are finite and no brighter than those of a sound bake of the same
+    room to its threshold (every partial solution lies under the converged one)."""
+    scene = fast(room_scene())
+    scene.luxel.threshold = 0.001
+    assert run_cli(["bake"]) == 0
+    prefix = addon.writeback.image_name(scene, "")
+    sound_images = {image.name: pixel_values(image) for image in bpy.data.images
+                    if image.name.startswith(prefix)}
+    assert sound_images
+    capsys.readouterr()
+
+    delivered = native.receivers.update
+    calls = []
+
+    def twice_after_150(*args, **kwargs):
+        calls.append(1)
+        delivered(*args, **kwargs)
+        if len(calls) > 150:
+            delivered(*args, **kwargs)
+
+    monkeypatch.setattr(native.receivers, "update", twice_after_150)
+    driver = OperatorDriver()
+    assert driver.execute(bpy.context) == {'FINISHED'}
+    stats = scene.luxel.stats
+    assert stats.diverged and not stats.stopped_at_shot_limit
+    warned = [message for kind, message in driver.reports
+              if kind == 'WARNING' and "made light" in message]
+    assert len(warned) == 1 and f"{stats.unshot:.2f} % unshot" in warned[0]
+    assert "Stopped: the unshot power rose" in last_bake_labels(scene)
+    for name, image in sound_images.items():
+        kept = pixel_values(bpy.data.images[name])
+        assert np.isfinite(kept).all()
+        assert kept[:, :3].sum() <= image[:, :3].sum() * 1.001
+
+    calls.clear()
+    assert run_cli(["bake"]) == addon.cli.EXIT_DIVERGED
+    assert "made light" in one_line(capsys)

@@ -1,0 +1,149 @@
+"""What real game levels have and tidy scenes lack, against independent truths: texels of
+metres beside and under shooters of centimetres, brushes crossing each other and the floor,
+faces inside solids, slivers, T-junctions and open sky, at the coarse densities levels bake
+at; and a bake whose shots make light, stopped with its last good lightmaps."""
+import numpy as np
+import pytest
+
+import analytic
+import scenes
+from native import Settings, Solver, SunLight, receivers
+from native.samples import SceneBuilder
+
+
+def level_in_miniature(albedo=0.8, emission=(0.0, 0.0, 0.0), open_roof=True):
+    """A 40 x 20 m hall 8 m high (y up) as level designers build one: brushes that cross
+    each other, the floor and the roof (pillars, overlapping steps), a 5 cm ledge and trim,
+    a crate holding a box inside it, a 2 mm sliver, a floor of T-junctions; the roof over
+    half of it, open to a sun and a sky over the other half (``open_roof``)."""
+    grey = (albedo,) * 3
+    builder = SceneBuilder()
+
+    def quad(name, corners, **options):
+        builder.quad(name, corners, grey, emission, two_sided=False, **options)
+
+    def box(name, top, bottom):
+        builder.box(name, top, bottom, grey, emission)
+
+    length, width, height = 40.0, 20.0, 8.0
+    roof = width / 2 if open_roof else width
+    quad("floor", [(0, 0, 0), (0, 0, width), (length, 0, width), (length, 0, 0)],
+         subdivisions=3)
+    quad("roof", [(0, height, 0), (length, height, 0), (length, height, roof),
+                  (0, height, roof)])
+    for name, corners in (("north", [(0, 0, 0), (length, 0, 0), (length, height, 0),
+                                     (0, height, 0)]),
+                          ("south", [(0, 0, width), (0, height, width),
+                                     (length, height, width), (length, 0, width)]),
+                          ("west", [(0, 0, 0), (0, height, 0), (0, height, width),
+                                    (0, 0, width)]),
+                          ("east", [(length, 0, 0), (length, 0, width),
+                                    (length, height, width), (length, height, 0)])):
+        quad(name, corners)
+    for index, x in enumerate((8.0, 16.0, 24.0, 32.0)):
+        top = height + 0.5
+        box(f"pillar{index}", [(x, top, 4), (x, top, 5), (x + 1, top, 5), (x + 1, top, 4)],
+            -0.5)
+    for step in range(12):
+        x, top = 2.0 + 0.3 * step, 0.2 * (step + 1)
+        box("stairs", [(x, top, 12), (x, top, 14), (x + 0.5, top, 14), (x + 0.5, top, 12)],
+            top - 0.3)
+    box("ledge", [(10, 3.05, 0), (10, 3.05, 0.3), (30, 3.05, 0.3), (30, 3.05, 0)], 3.0)
+    box("trim", [(5, 0.05, 19.95), (5, 0.05, 20), (35, 0.05, 20), (35, 0.05, 19.95)], 0.0)
+    box("crate", [(20, 1, 10), (20, 1, 11), (21, 1, 11), (21, 1, 10)], 0.0)
+    box("inside_crate", [(20.2, 0.8, 10.2), (20.2, 0.8, 10.8), (20.8, 0.8, 10.8),
+                         (20.8, 0.8, 10.2)], 0.0)
+    sliver = [(12, 2, 8), (12, 2, 8.002), (16, 2, 8.002), (16, 2, 8)]
+    quad("sliver", sliver)
+    quad("sliver", sliver[::-1])
+    if not open_roof:
+        return builder.build()
+    sun = np.array([0.3, -0.8, 0.4])
+    return builder.build([SunLight(direction=tuple(sun / np.linalg.norm(sun)), strength=3.0)],
+                         sky=(0.4, 0.4, 0.4))
+
+
+@pytest.mark.parametrize("height, half_side", [(0.3, 0.05), (1.0, 0.05), (0.3, 0.2)])
+def test_a_lamp_over_texels_coarser_than_it_lights_them_by_its_form_factor(
+        ctx, gl_clean, height, half_side):
+    """A lamp of 10 or 40 cm a texel's side or less over a 4 m floor of 2 m texels (a level
+    at 0.5 texels/m): the floor receives the lamp's power times its form factor to the floor
+    (Lambert's formula, averaged over the lamp), within 0.5 %. From their sample points
+    alone, a metre off the lamp, the texels took a tenth of it (0.105 of the emitted power
+    for 0.982)."""
+    floor = [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)]
+    scene = (SceneBuilder()
+             .quad("floor", floor, (0.5,) * 3)
+             .quad("lamp", [(-half_side, -half_side, height), (-half_side, half_side, height),
+                            (half_side, half_side, height), (half_side, -half_side, height)],
+                   (0.0,) * 3, (1.0,) * 3, two_sided=False)
+             .build())
+    solver = Solver(scene, Settings(texel_density=0.5, max_shots=1, ambient=False), ctx=ctx)
+    try:
+        solver.run()
+        ledger = solver.ledger()
+    finally:
+        solver.release()
+    along = (np.arange(8) + 0.5) / 8 * 2 * half_side - half_side
+    truth = np.mean([analytic.polygon_form_factor(np.array([x, y, height]),
+                                                  np.array([0.0, 0.0, -1.0]), floor)
+                     for x in along for y in along])
+    received = (ledger.emitted - ledger.escaped)[0] / ledger.emitted[0]
+    assert received == pytest.approx(truth, rel=0.005)
+
+
+def test_a_closed_level_in_miniature_glowing_all_over_is_a_furnace(ctx, gl_clean):
+    """The hall closed, every face emitting 1 and reflecting 0.5 at 0.5 texels/m: radiance
+    is 2 wherever a surface is seen, so every texel seen holds 1 (rho E / (1 - rho)). Texels
+    inside the crate, the pillars and the steps see only their insides and are left out."""
+    solver = Solver(level_in_miniature(albedo=0.5, emission=(1.0,) * 3, open_roof=False),
+                    Settings(texel_density=0.5, threshold=0.002, ambient=False), ctx=ctx)
+    try:
+        solver.run()
+        images, samples, ledger = solver.result(), solver.texel_samples(), solver.ledger()
+        progress = solver.progress
+    finally:
+        solver.release()
+    values = np.concatenate([image[s["occupied"]][:, 0] for image, s in zip(images, samples)])
+    assert progress.converged and not progress.diverged
+    seen = values > 0.25    # a texel inside a solid gets nothing but a leak at its rim
+    assert np.median(values[seen]) == pytest.approx(1.0, abs=0.02)
+    assert np.mean(values[seen]) == pytest.approx(1.0, abs=0.03)
+    assert ledger.imbalance() < 1e-4
+
+
+def test_a_bake_whose_shots_make_light_stops_with_its_last_good_lightmaps(ctx, gl_clean,
+                                                                         monkeypatch):
+    """Shots that deliver their light twice (as a defect would) after the first 400: the
+    unshot power rises, and the bake stops, diverged, with the lightmaps, ledger and unshot
+    fraction of a checkpoint from before. In a furnace of albedo 0.9 every partial solution
+    lies under the converged 9: so do the lightmaps kept, and the ledger still balances."""
+    delivered = receivers.update
+    calls = []
+
+    def twice_after_400(*args, **kwargs):
+        calls.append(1)
+        delivered(*args, **kwargs)
+        if len(calls) > 400:
+            delivered(*args, **kwargs)
+
+    monkeypatch.setattr(receivers, "update", twice_after_400)
+    solver = Solver(scenes.furnace_cube(0.9), Settings(
+        texel_density=4, shoot_level=0, threshold=0.001, hemicube_resolution=32,
+        shooters_per_selection=1, ambient=False), ctx=ctx)
+    try:
+        fractions = []
+        while solver.step():
+            fractions.append(solver.progress.unshot_fraction)
+        progress, ledger, image = solver.progress, solver.ledger(), solver.result()[0]
+    finally:
+        solver.release()
+    assert progress.diverged and progress.finished and not progress.converged
+    assert not progress.stopped_at_shot_limit
+    assert progress.unshot_fraction < 1.0
+    assert progress.unshot_fraction == pytest.approx(min(fractions), rel=0.3)
+    values = image[image[..., 3] == 1][:, :3]
+    assert values.max() > 0.5 and values.max() <= 9.0
+    assert ledger.imbalance() < 1e-4
+    assert float(np.mean(ledger.unshot)) == pytest.approx(
+        progress.unshot_fraction * float(np.mean(ledger.emitted)), rel=1e-3)
