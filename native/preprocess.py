@@ -7,6 +7,7 @@ import math
 import moderngl
 import numpy as np
 
+from . import buried
 from .errors import SettingsError
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
@@ -325,6 +326,7 @@ def rasterize(state):
         page.receivers = gl.framebuffer([irradiance, page.textures["unshot"]] + (
             [page.textures["incoming"]] if state.glossy_lobes else []))
     measure_surface(state, vaos, keys[starts, 0], starts, ends)
+    buried.keep_open_parts(state)
     for page in pages:
         with render_state(ctx, framebuffer=page.receivers,   # the unshot holds emission
                           color_mask=[(True,) * 4, (False,) * 4, (True,) * 4][
