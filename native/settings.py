@@ -343,9 +343,10 @@ _METAVARS = {int: "N", float: "X"}
 
 
 def _option_help(what, allowed, default):
-    """--help's line: what the option does, its range and, where there is one, its default."""
+    """--help's line: what the option does, its range and, where there is one, its default;
+    a percent sign doubled, since argparse formats the line with %."""
     parts = [what, allowed] + ([] if default is None else [f"default {default}"])
-    return "; ".join(part for part in parts if part)
+    return "; ".join(part for part in parts if part).replace("%", "%%")
 
 
 def add_options(parser, defaults=None):

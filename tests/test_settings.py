@@ -208,6 +208,18 @@ def test_an_options_help_gives_its_range_unit_and_default(setting):
     assert action.help.endswith(f"default {setting.default}")
 
 
+def test_help_prints_every_option_with_its_help_as_declared(capsys):
+    """--help formats each line with %: a bare percent sign in a setting's help (the ambient
+    term's "within 1 %") made it raise instead of printing."""
+    with pytest.raises(SystemExit) as exit:
+        parser(Settings()).parse_args(["--help"])
+    assert exit.value.code == 0
+    printed = " ".join(capsys.readouterr().out.split())
+    for setting in EXPOSED_SETTINGS:
+        if setting.exposed.option is not None:
+            assert " ".join(setting.help.split()) in printed, setting.name
+
+
 def test_a_switch_sets_its_setting_on_and_off():
     for setting in (s for s in EXPOSED_SETTINGS if s.kind is bool):
         on, off = setting.exposed.option, "--no-" + setting.exposed.option[2:]
