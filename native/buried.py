@@ -222,14 +222,16 @@ def _shrink(page, texel, position, area, buried):
     open_points = mine & ~buried
     count = np.bincount(slot[open_points], minlength=len(touched))
     mean = np.stack([np.bincount(slot[open_points], weights=position[open_points, axis],
-                                 minlength=len(touched)) for axis in range(3)], axis=1)
+                                 minlength=len(touched)) for axis in range(3)],
+                    axis=1).astype(np.float64)   # bincount of nothing counts in integers
     stored[touched, 3] = np.maximum(stored[touched, 3] - lost, 0.0)
     moved = count > 0
     mean[moved] /= count[moved, None]
     candidates = np.nonzero(open_points)[0]
-    distance = np.linalg.norm(position[candidates] - mean[slot[candidates]], axis=1)
-    order = np.lexsort((distance, slot[candidates]))
-    first = order[np.r_[True, np.diff(slot[candidates][order]) != 0]]
-    stored[touched[slot[candidates[first]]], :3] = position[candidates[first]]
+    if len(candidates):
+        distance = np.linalg.norm(position[candidates] - mean[slot[candidates]], axis=1)
+        order = np.lexsort((distance, slot[candidates]))
+        first = order[np.r_[True, np.diff(slot[candidates][order]) != 0]]
+        stored[touched[slot[candidates[first]]], :3] = position[candidates[first]]
     stored[touched[~moved], 3] = 0.0
     texture.write(stored.astype(np.float32).tobytes())

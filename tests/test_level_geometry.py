@@ -9,6 +9,7 @@ import pytest
 
 import analytic
 import scenes
+from test_hard_cases import occupied_texels
 from native import Settings, Solver, SunLight, receivers
 from native.samples import SceneBuilder
 
@@ -223,9 +224,33 @@ def test_a_floor_texel_half_inside_a_pillar_receives_on_its_open_part(ctx, gl_cl
     np.testing.assert_allclose(values[on_floor], albedo * strength / math.pi, rtol=0.005)
 
 
-def occupied_texels(images, samples):
-    """Values, positions and normals of every occupied texel over all pages."""
-    values = np.concatenate([image[s["occupied"]][:, :3] for image, s in zip(images, samples)])
-    positions = np.concatenate([s["position"][s["occupied"]] for s in samples])
-    normals = np.concatenate([s["normal"][s["occupied"]] for s in samples])
-    return values, positions, normals
+
+def test_a_texel_buried_whole_receives_nothing_and_the_rest_bakes(ctx, gl_clean):
+    """A floor of 2 m texels whose texels under a closed block all lie wholly inside it (none
+    partly open): the buried ones get no area and no light, the others the sun's rho S / pi;
+    the received power is the sun's on the open floor and the block's top. With no open
+    point to move to, the set-up raised."""
+    albedo, strength = 0.5, 2.0
+    builder = SceneBuilder()
+    builder.quad("floor", [(0, 0, 0), (8, 0, 0), (8, 8, 0), (0, 8, 0)], (albedo,) * 3)
+    x0, y0, z0, x1, y1, z1 = -0.5, -0.5, -1.0, 4.0, 8.5, 1.0   # the floor's half x < 4
+    for corners in ([(x0, y0, z0), (x0, y1, z0), (x1, y1, z0), (x1, y0, z0)],
+                    [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],
+                    [(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)],
+                    [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)],
+                    [(x1, y1, z0), (x0, y1, z0), (x0, y1, z1), (x1, y1, z1)],
+                    [(x0, y1, z0), (x0, y0, z0), (x0, y0, z1), (x0, y1, z1)]):
+        builder.quad("block", corners, (albedo,) * 3)
+    scene = builder.build([SunLight(direction=(0.0, 0.0, -1.0), strength=strength)])
+    solver = Solver(scene, Settings(texel_density=0.5, max_shots=1, ambient=False), ctx=ctx)
+    try:
+        solver.run()
+        ledger, images, samples = solver.ledger(), solver.result(), solver.texel_samples()
+    finally:
+        solver.release()
+    received = float(np.mean(ledger.absorbed)) / (1.0 - albedo)
+    assert received == pytest.approx(strength * (4.0 * 8.0 + 4.5 * 9.0), rel=0.01)
+    values, positions, normals = occupied_texels(images, samples)
+    on_floor = (np.abs(positions[:, 2]) < 1e-6) & (normals[:, 2] > 0.99)
+    assert on_floor.any()
+    np.testing.assert_allclose(values[on_floor], albedo * strength / math.pi, rtol=0.005)
