@@ -191,56 +191,39 @@ def test_a_bake_whose_shots_make_light_stops_with_its_last_good_lightmaps(ctx, g
         progress.unshot_fraction * float(np.mean(ledger.emitted)), rel=1e-3)
 
 
-def test_a_floor_texel_half_inside_a_pillar_receives_on_its_open_part(ctx, gl_clean):
-    """An 8 m floor of 2 m texels under a sun straight above, a closed 1 m pillar through it
-    over a texel's centre: the floor and the pillar's top receive the sun on all their open
-    area, 64 m^2 (floor less the pillar's foot, plus its top), and every floor texel shows
-    rho S / pi. With its sample point inside the pillar, the texel got nothing for its
-    3 m^2 in the open (61 m^2 in all)."""
-    albedo, strength = 0.5, 2.0
-    builder = SceneBuilder()
-    builder.quad("floor", [(0, 0, 0), (8, 0, 0), (8, 8, 0), (0, 8, 0)], (albedo,) * 3)
-    low, high = (0.5, 0.5, -1.0), (1.5, 1.5, 3.0)
-    x0, y0, z0 = low
-    x1, y1, z1 = high
+def closed_block(builder, name, low, high, albedo):
+    """Six outward faces of the box from ``low`` to ``high`` (z up), a closed brush."""
+    (x0, y0, z0), (x1, y1, z1) = low, high
     for corners in ([(x0, y0, z0), (x0, y1, z0), (x1, y1, z0), (x1, y0, z0)],    # bottom
                     [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],    # top
                     [(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)],
                     [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)],
                     [(x1, y1, z0), (x0, y1, z0), (x0, y1, z1), (x1, y1, z1)],
                     [(x0, y1, z0), (x0, y0, z0), (x0, y0, z1), (x0, y1, z1)]):
-        builder.quad("pillar", corners, (albedo,) * 3)
-    scene = builder.build([SunLight(direction=(0.0, 0.0, -1.0), strength=strength)])
-    solver = Solver(scene, Settings(texel_density=0.5, max_shots=1, ambient=False), ctx=ctx)
-    try:
-        solver.run()
-        ledger, images, samples = solver.ledger(), solver.result(), solver.texel_samples()
-    finally:
-        solver.release()
-    received = float(np.mean(ledger.absorbed)) / (1.0 - albedo)
-    assert received == pytest.approx(strength * 64.0, rel=0.005)
-    values, positions, normals = occupied_texels(images, samples)
-    on_floor = (np.abs(positions[:, 2]) < 1e-6) & (normals[:, 2] > 0.99)
-    np.testing.assert_allclose(values[on_floor], albedo * strength / math.pi, rtol=0.005)
+        builder.quad(name, corners, (albedo,) * 3)
 
 
+# (block's low and high corners, m^2 the sun lights: the floor's open part and the top)
+BURYING_BLOCKS = {
+    # A 1 m pillar over a floor texel's centre: that texel's sample point lay inside it,
+    # and it got nothing for its 3 m^2 in the open (61 m^2 lit in all).
+    "pillar over a texel's centre": ((0.5, 0.5, -1.0), (1.5, 1.5, 3.0), 63.0 + 1.0),
+    # Half the floor inside a block, its texels there wholly buried, none partly open:
+    # with no open point to move to, the set-up raised.
+    "texels buried whole": ((-0.5, -0.5, -1.0), (4.0, 8.5, 1.0), 4.0 * 8.0 + 4.5 * 9.0),
+}
 
-def test_a_texel_buried_whole_receives_nothing_and_the_rest_bakes(ctx, gl_clean):
-    """A floor of 2 m texels whose texels under a closed block all lie wholly inside it (none
-    partly open): the buried ones get no area and no light, the others the sun's rho S / pi;
-    the received power is the sun's on the open floor and the block's top. With no open
-    point to move to, the set-up raised."""
+
+@pytest.mark.parametrize("low, high, lit_area", BURYING_BLOCKS.values(), ids=BURYING_BLOCKS)
+def test_a_floor_through_a_closed_block_receives_on_its_open_part(ctx, gl_clean, low, high,
+                                                                   lit_area):
+    """An 8 m floor of 2 m texels under a sun straight above, a closed block through it: the
+    floor and the block's top receive the sun on their open area alone, and every floor
+    texel with an open part shows rho S / pi."""
     albedo, strength = 0.5, 2.0
     builder = SceneBuilder()
     builder.quad("floor", [(0, 0, 0), (8, 0, 0), (8, 8, 0), (0, 8, 0)], (albedo,) * 3)
-    x0, y0, z0, x1, y1, z1 = -0.5, -0.5, -1.0, 4.0, 8.5, 1.0   # the floor's half x < 4
-    for corners in ([(x0, y0, z0), (x0, y1, z0), (x1, y1, z0), (x1, y0, z0)],
-                    [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],
-                    [(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)],
-                    [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)],
-                    [(x1, y1, z0), (x0, y1, z0), (x0, y1, z1), (x1, y1, z1)],
-                    [(x0, y1, z0), (x0, y0, z0), (x0, y0, z1), (x0, y1, z1)]):
-        builder.quad("block", corners, (albedo,) * 3)
+    closed_block(builder, "block", low, high, albedo)
     scene = builder.build([SunLight(direction=(0.0, 0.0, -1.0), strength=strength)])
     solver = Solver(scene, Settings(texel_density=0.5, max_shots=1, ambient=False), ctx=ctx)
     try:
@@ -249,7 +232,7 @@ def test_a_texel_buried_whole_receives_nothing_and_the_rest_bakes(ctx, gl_clean)
     finally:
         solver.release()
     received = float(np.mean(ledger.absorbed)) / (1.0 - albedo)
-    assert received == pytest.approx(strength * (4.0 * 8.0 + 4.5 * 9.0), rel=0.01)
+    assert received == pytest.approx(strength * lit_area, rel=0.005)
     values, positions, normals = occupied_texels(images, samples)
     on_floor = (np.abs(positions[:, 2]) < 1e-6) & (normals[:, 2] > 0.99)
     assert on_floor.any()
