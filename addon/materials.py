@@ -46,6 +46,15 @@ OUTSIDE_UV = -16.0          # where corners outside the atlas go: off every imag
 GUTTER_TEXELS = 3           # filled around each chart: partly covered texels and the
 #                             bilinear filter at chart borders read real values
 DEFAULT_COLOUR = (0.8, 0.8, 0.8, 1.0)   # what Cycles shows for an empty material slot
+# What a material's copy cannot give as the scene renders it (_unevaluable), as warnings.
+MISSING_IMAGES = ("images {subjects}, read by materials {materials}, have no pixels (missing "
+                  "files?): Cycles shows them magenta and Luxel bakes them so; find them (File "
+                  "> External Data > Find Missing Files) or remove their nodes")
+RAY_KIND = ("materials {materials} (nodes {subjects}) depend on the kind of ray; Luxel "
+            "evaluates them as a camera ray sees them")
+OBJECT_DATA = ("materials {materials} (nodes {subjects}) read the object, its instancer or the "
+               "view layer; Luxel evaluates them on a copy of the mesh, where these read their "
+               "defaults")
 # Nodes whose output does not vary over a surface unless something that does feeds them.
 _VARYING_PREFIXES = ("ShaderNodeTex",)
 _VARYING = {"ShaderNodeTexCoord", "ShaderNodeUVMap", "ShaderNodeAttribute",
@@ -165,7 +174,7 @@ def _make_copies(depsgraph, export, atlas, row_of, bake):
     bake.scene = bpy.data.scenes.new(TEMP_PREFIX + "Scene")
     surfaces = {surface.key: surface for surface in export.surfaces
                 if atlas.object_page[surface.object_index] >= 0}
-    copies = []
+    copies, unevaluable = [], {}   # unevaluable: {problem: ({subject: None}, {material: None})}
     found = []
     for instance in depsgraph.object_instances:
         surface = surfaces.pop(instance_key(instance), None)
@@ -214,10 +223,16 @@ def _make_copies(depsgraph, export, atlas, row_of, bake):
         used = [originals[slot] for slot in np.unique(surface.slot)
                 if originals[slot] is not None]
         for original in used:
-            for node, why in _unevaluable(original):
-                export.warnings.append(f"material '{original.name}': node '{node}' {why}")
+            for problem, subject in _unevaluable(original):
+                found = unevaluable.setdefault(problem, ({}, {}))
+                found[0][subject] = found[1][original.name] = None
         copies.append(_Copy(obj, page, low, size, any(_varies(m) for m in used),
                             any(may_emit(m) for m in used)))
+    # One warning per kind of problem: an imported level's hundred materials missing their
+    # images would otherwise bury every other warning.
+    export.warnings += [problem.format(subjects=quoted_names(subjects),
+                                       materials=quoted_names(materials))
+                        for problem, (subjects, materials) in unevaluable.items()]
     export.warnings[:] = list(dict.fromkeys(export.warnings))
     return copies
 
@@ -392,7 +407,7 @@ def _check_range(export, atlas, albedo, emission):
         materials = sorted({m for surface in export.surfaces if surface.object_index == obj
                             for m in surface.materials if m is not None})
         name = f"'{scene.object_names[obj]}'" + (
-            f" (material {', '.join(repr(m) for m in materials)})" if materials else "")
+            f" (materials {quoted_names(materials)})" if materials else "")
         if albedo[page][box].max(initial=0.0) > MAX_ALBEDO:
             export.warnings.append(f"{name} reflects more than {MAX_ALBEDO} of the light in "
                                    "places (a colour of 1 or more): lowered to "
@@ -478,21 +493,24 @@ def _varies(material):
 
 
 def _unevaluable(material):
-    """(node name, why) for what a bake of the material's copy on a copy of its mesh cannot
-    give as the scene renders it."""
+    """(problem, subject) for what a bake of the material's copy on a copy of its mesh cannot
+    give as the scene renders it: the problem a warning's text, with {subjects} (images or
+    nodes) and {materials} to fill in."""
     output = _user_output(material)
     for node in [] if output is None else _upstream(output):
         if (node.bl_idname == 'ShaderNodeTexImage' and node.image is not None
                 and 0 in node.image.size):
-            yield node.name, (f"reads image '{node.image.name}', which has no pixels (missing "
-                              "file?): Cycles shows it magenta; fix the path or remove the node")
+            yield MISSING_IMAGES, node.image.name
         elif node.bl_idname == 'ShaderNodeLightPath':
-            yield node.name, ("depends on the kind of ray; Luxel evaluates the material as a "
-                              "camera ray sees it")
+            yield RAY_KIND, node.name
         elif node.bl_idname == 'ShaderNodeObjectInfo' or (
                 node.bl_idname == 'ShaderNodeAttribute'
                 and node.attribute_type in {'OBJECT', 'INSTANCER', 'VIEW_LAYER'}):
-            yield node.name, ("reads the object, its instancer or the view layer; Luxel "
-                              "evaluates the material on a copy of the mesh, where these "
-                              "read their defaults")
+            yield OBJECT_DATA, node.name
 
+
+def quoted_names(names, most=3):
+    """'a', 'b', 'c' and 4 more: a list a warning can hold."""
+    names = list(names)
+    shown = ", ".join(f"'{name}'" for name in names[:most])
+    return shown + (f" and {len(names) - most} more" if len(names) > most else "")

@@ -240,6 +240,58 @@ def test_faces_without_a_material_are_default_grey_with_a_warning_naming_the_obj
     assert bpy.ops.luxel.bake() == {'FINISHED'}
 
 
+def missing_image(name):
+    """The image an importer leaves where the file is not found: one with no pixels."""
+    image = bpy.data.images.get(name)
+    if image is None:
+        image = bpy.data.images.new(name, 8, 8)
+        image.source = 'FILE'
+        image.filepath = f"//textures/{name}"
+        image.reload()
+    return image
+
+
+def test_an_imported_level_missing_its_images_gets_one_short_warning_naming_them():
+    """A level imported from OBJ with its texture folder left behind: a material per surface,
+    each reading an image with no pixels. One warning names the images and some of the
+    materials; the one that a white level's albedo is lowered names the object and some of
+    its materials: each short enough for Blender's report (it cuts at 1,024 characters) to
+    keep its fix."""
+    scene = fast(room_scene())
+    level = cube(scene, "level", 0.6, (0.8, -0.8, 0.5))
+    materials = []
+    for index in range(6):
+        imported = bpy.data.materials.new(f"slot{index}")
+        if imported.node_tree is None:     # Blender before 5.0 makes it on use_nodes
+            imported.use_nodes = True
+        texture = imported.node_tree.nodes.new("ShaderNodeTexImage")
+        texture.image = missing_image(f"wall_{index % 2}.jpg")
+        shader = imported.node_tree.nodes["Principled BSDF"]
+        imported.node_tree.links.new(texture.outputs["Color"], shader.inputs["Base Color"])
+        level.data.materials.append(imported)
+        materials.append(imported.name)
+    white = cube(scene, "white level", 0.6, (-0.8, 0.8, 0.5))
+    for index in range(6):
+        white.data.materials.append(material(f"white{index}", (1.0, 1.0, 1.0)))
+    for obj in (level, white):
+        for face, polygon in enumerate(obj.data.polygons):
+            polygon.material_index = face
+    job = addon.bake.BakeJob(bpy.context)
+    job.set_up()
+    job.release()
+    missing = [w for w in job.warnings if "no pixels" in w]
+    assert len(missing) == 1, job.warnings
+    assert ("'wall_0.jpg'" in missing[0] and "'wall_1.jpg'" in missing[0]
+            and "'slot0', 'slot1', 'slot2' and 3 more" in missing[0]
+            and "Find Missing Files" in missing[0])
+    lowered = [w for w in job.warnings if w.startswith("'white level'")]
+    assert lowered == ["'white level' (materials 'white0', 'white1', 'white2' and 3 more) "
+                       "reflects more than 0.999 of the light in places (a colour of 1 or "
+                       "more): lowered to 0.999, since a surface cannot reflect all light"]
+    assert all(len(warning) < 400 for warning in job.warnings)
+    assert not any("slot5" in warning or "white5" in warning for warning in job.warnings)
+
+
 def albedo_at_centres(scene):
     """Each triangle's albedo as the solver reads it at the centre of its texture corners
     (Cycles' evaluation per texel, materials.evaluate_materials)."""
