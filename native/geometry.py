@@ -16,6 +16,7 @@ class TrianglePlanes:
         normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         self.normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
         self.offsets = (self.normals * corners[:, 0]).sum(axis=1)
+        self.corners = corners
         self.low, self.high = corners.min(axis=1), corners.max(axis=1)
         self.centres = corners.mean(axis=1)
         self.radii = np.linalg.norm(corners - self.centres[:, None], axis=2).max(axis=1)

@@ -1,6 +1,6 @@
 """Shooter construction: the selected regions' maps read back in one wait for the GPU, and
 from each region (or its finer parts) a shooter: the coplanar texels around the strongest
-with similar unshot radiance, on one side of every occluder crossing the block, in a
+with similar unshot radiance, that no occluder standing in the block hides from it, in a
 rectangle, and the quad they shoot from."""
 from dataclasses import dataclass, field
 import math
@@ -26,6 +26,10 @@ COPLANAR_DEPTH = 0.25
 FLAT_CHART_SINE = 0.1
 # A plane crosses a shooting block when texels lie this share of a texel beyond it each way.
 CROSSING_MARGIN = 1e-3
+# A texel's way to a shooter's strongest texel is blocked where it passes this share of a
+# texel or less from an occluder crossing the block (unblocked_members): the shot's centre
+# lies off the strongest texel.
+BLOCKING_REACH = 0.25
 # A shooter's quad shoots as SHOOTER_CELLS x SHOOTER_CELLS cells, each at the radiance of the
 # texels in it and with its own glossy lobe (receive_patch.frag gathers them one by one near
 # the shooter): a hot spot a lamp makes on a wall beside it, shot at the block's mean
@@ -64,7 +68,7 @@ class ShooterCaches:
     move, and blocks are shot many times) the occluders' planes crossing it and its charts."""
     occluders: object                               # geometry.TrianglePlanes
     staging: object                                 # buffer: BLOCK_MAPS of a selection
-    crossing_planes: dict = field(default_factory=dict)
+    crossing_occluders: dict = field(default_factory=dict)
     region_charts: dict = field(default_factory=dict)
 
 
@@ -152,7 +156,8 @@ def make_shooter(state, caches, region, maps, charts):
                 & (np.abs((position[:, :3] - p0) @ n0)
                    <= COPLANAR_DEPTH * region.size * texel_size[strongest]))
     members = np.nonzero(coplanar & (density >= SIMILAR_RADIANCE * density[strongest]))[0]
-    members = _same_side_as(caches, region, strongest, members, position, texel_size[strongest])
+    members = unblocked_members(caches, region, strongest, members, position,
+                                texel_size[strongest])
     members = rectangle_around(members, strongest, width, len(area) // width)
     weights = area[members, None]
     total_area = float(weights.sum())
@@ -306,31 +311,57 @@ def _bend_rise(texels, points, normals):
     return rise
 
 
-def _same_side_as(caches, region, strongest, members, position, texel_size):
-    """The members on the strongest texel's side of every occluder whose plane runs through
-    the block (a wall standing on the floor, a shelf touching a cabinet): shot from one
-    centre, texels on both sides would light each side from the other. The others stay
-    unshot for a later shot."""
+def unblocked_members(caches, region, strongest, members, position, texel_size):
+    """The members whose straight way to the strongest texel no occluder standing in the
+    block blocks (a wall standing on the floor, a shelf touching a cabinet): shot from one
+    centre, texels on both sides would light each side from the other. An occluder blocks
+    where its triangle, grown by BLOCKING_REACH texels, meets the way, not its whole plane:
+    a crate standing on a level's floor kept the floor beyond each of its sides' planes for
+    later shots, most of the block. The others stay unshot for a later shot."""
     if len(members) < 2:
         return members
     points = position[:, :3]
-    if region not in caches.crossing_planes:   # blocks are shot many times: once per block
-        caches.crossing_planes[region] = _planes_crossing(
+    if region not in caches.crossing_occluders:   # blocks are shot many times: once per block
+        caches.crossing_occluders[region] = _occluders_crossing(
             caches.occluders, points[position[:, 3] > 0.0], texel_size)
-    normals, offsets = caches.crossing_planes[region]
+    normals, offsets, corners = caches.crossing_occluders[region]
     if len(offsets) == 0:
         return members
-    sides = points[members] @ normals.T - offsets                    # (members, planes)
-    own_side = np.sign(points[strongest] @ normals.T - offsets)
-    return members[(sides * own_side >= -CROSSING_MARGIN * texel_size).all(axis=1)]
+    start = points[strongest]
+    own = start @ normals.T - offsets                                 # (planes,)
+    other = points[members] @ normals.T - offsets                     # (members, planes)
+    margin = CROSSING_MARGIN * texel_size
+    crosses = (own * other < 0.0) & (np.abs(own) > margin) & (np.abs(other) > margin)
+    share = own / np.where(crosses, own - other, 1.0)                 # along the way
+    at = start + share[..., None] * (points[members, None, :] - start)  # (members, planes, 3)
+    near = _near_triangles(at, corners, BLOCKING_REACH * texel_size)
+    return members[~(crosses & near).any(axis=1)]
 
 
-def _planes_crossing(occluders, points, texel_size):
-    """Planes (normals, offsets) of the occluders near ``points`` that have some of them on
-    each side."""
+def _near_triangles(points, corners, reach):
+    """(M, P) whether each of ``points`` (M, P, 3), in the plane of triangle P
+    (``corners`` (P, 3, 3)), lies in it or within ``reach`` of its edges."""
+    inside = np.ones(points.shape[:2], dtype=bool)
+    near_edge = np.zeros(points.shape[:2], dtype=bool)
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    for i in range(3):
+        a, b = corners[:, i], corners[:, (i + 1) % 3]
+        edge = b - a
+        to_point = points - a
+        inside &= (np.cross(edge, to_point) * normal).sum(axis=-1) >= 0.0
+        along = np.clip((to_point * edge).sum(axis=-1)
+                        / np.maximum((edge * edge).sum(axis=-1), 1e-30), 0.0, 1.0)
+        gap = np.linalg.norm(to_point - along[..., None] * edge, axis=-1)
+        near_edge |= gap <= reach
+    return inside | near_edge
+
+
+def _occluders_crossing(occluders, points, texel_size):
+    """Planes (normals, offsets) and corners of the occluders near ``points`` whose planes
+    have some of them on each side."""
     near = occluders.within(points.min(axis=0) - texel_size, points.max(axis=0) + texel_size)
     normals, offsets = occluders.normals[near], occluders.offsets[near]
     sides = points @ normals.T - offsets
     margin = CROSSING_MARGIN * texel_size
     crossing = (sides.max(axis=0) > margin) & (sides.min(axis=0) < -margin)
-    return normals[crossing], offsets[crossing]
+    return normals[crossing], offsets[crossing], occluders.corners[near][crossing]
