@@ -47,14 +47,13 @@ GUTTER_TEXELS = 3           # filled around each chart: partly covered texels an
 #                             bilinear filter at chart borders read real values
 DEFAULT_COLOUR = (0.8, 0.8, 0.8, 1.0)   # what Cycles shows for an empty material slot
 # What a material's copy cannot give as the scene renders it (_unevaluable), as warnings.
-MISSING_IMAGES = ("images {subjects}, read by materials {materials}, have no pixels (missing "
-                  "files?): Cycles shows them magenta and Luxel bakes them so; find them (File "
-                  "> External Data > Find Missing Files) or remove their nodes")
-RAY_KIND = ("materials {materials} (nodes {subjects}) depend on the kind of ray; Luxel "
-            "evaluates them as a camera ray sees them")
-OBJECT_DATA = ("materials {materials} (nodes {subjects}) read the object, its instancer or the "
-               "view layer; Luxel evaluates them on a copy of the mesh, where these read their "
-               "defaults")
+MISSING_IMAGES = ("no pixels in {images} (read by {materials}): missing files? Cycles shows "
+                  "them magenta and Luxel bakes them so; find them (File > External Data > "
+                  "Find Missing Files) or remove their nodes")
+RAY_KIND = ("{materials} ({nodes}) depend on the kind of ray; Luxel evaluates them as a "
+            "camera ray sees them")
+OBJECT_DATA = ("{materials} ({nodes}) read the object, its instancer or the view layer; Luxel "
+               "evaluates them on a copy of the mesh, where these read their defaults")
 # Nodes whose output does not vary over a surface unless something that does feeds them.
 _VARYING_PREFIXES = ("ShaderNodeTex",)
 _VARYING = {"ShaderNodeTexCoord", "ShaderNodeUVMap", "ShaderNodeAttribute",
@@ -230,8 +229,9 @@ def _make_copies(depsgraph, export, atlas, row_of, bake):
                             any(may_emit(m) for m in used)))
     # One warning per kind of problem: an imported level's hundred materials missing their
     # images would otherwise bury every other warning.
-    export.warnings += [problem.format(subjects=quoted_names(subjects),
-                                       materials=quoted_names(materials))
+    export.warnings += [problem.format(images=quoted_names("image", subjects),
+                                       nodes=quoted_names("node", subjects),
+                                       materials=quoted_names("material", materials))
                         for problem, (subjects, materials) in unevaluable.items()]
     export.warnings[:] = list(dict.fromkeys(export.warnings))
     return copies
@@ -407,7 +407,7 @@ def _check_range(export, atlas, albedo, emission):
         materials = sorted({m for surface in export.surfaces if surface.object_index == obj
                             for m in surface.materials if m is not None})
         name = f"'{scene.object_names[obj]}'" + (
-            f" (materials {quoted_names(materials)})" if materials else "")
+            f" ({quoted_names('material', materials)})" if materials else "")
         if albedo[page][box].max(initial=0.0) > MAX_ALBEDO:
             export.warnings.append(f"{name} reflects more than {MAX_ALBEDO} of the light in "
                                    "places (a colour of 1 or more): lowered to "
@@ -494,8 +494,8 @@ def _varies(material):
 
 def _unevaluable(material):
     """(problem, subject) for what a bake of the material's copy on a copy of its mesh cannot
-    give as the scene renders it: the problem a warning's text, with {subjects} (images or
-    nodes) and {materials} to fill in."""
+    give as the scene renders it: the problem a warning's text, with {images} or {nodes}
+    (the subjects) and {materials} to fill in."""
     output = _user_output(material)
     for node in [] if output is None else _upstream(output):
         if (node.bl_idname == 'ShaderNodeTexImage' and node.image is not None
@@ -509,8 +509,9 @@ def _unevaluable(material):
             yield OBJECT_DATA, node.name
 
 
-def quoted_names(names, most=3):
-    """'a', 'b', 'c' and 4 more: a list a warning can hold."""
+def quoted_names(noun, names, most=3):
+    """materials 'a', 'b', 'c' and 4 more (material 'a' alone): a list a warning can hold."""
     names = list(names)
     shown = ", ".join(f"'{name}'" for name in names[:most])
-    return shown + (f" and {len(names) - most} more" if len(names) > most else "")
+    return (f"{noun}{'s' if len(names) > 1 else ''} {shown}"
+            + (f" and {len(names) - most} more" if len(names) > most else ""))
