@@ -675,6 +675,9 @@ def _atlas_of(scene, mesh_triangles, units):
         used, local = np.unique(scene.triangles[members], return_inverse=True)
         # xatlas sizes charts by surface area: scaling an object's copy scales its texels.
         scale = units * scene.object_texel_scale[int(scene.object_index[members[0]])]
-        atlas.add_mesh((scene.vertices[used] * scale).astype(np.float32),
+        # From the mesh's own corner: xatlas works in single floats, which 100 km from the
+        # origin step by 8 mm, and there it charted a 1 m cube into nothing.
+        corner = scene.vertices[used].min(axis=0)
+        atlas.add_mesh(((scene.vertices[used] - corner) * scale).astype(np.float32),
                        local.reshape(-1, 3).astype(np.uint32))
     return atlas

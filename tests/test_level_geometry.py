@@ -2,6 +2,7 @@
 metres beside and under shooters of centimetres, brushes crossing each other and the floor,
 faces inside solids, slivers, T-junctions and open sky, at the coarse densities levels bake
 at; and a bake whose shots make light, stopped with its last good lightmaps."""
+import dataclasses
 import math
 
 import numpy as np
@@ -289,3 +290,23 @@ def test_a_crate_on_a_floor_block_keeps_only_the_floor_it_hides_from_the_shot():
                                 shooters.BLOCKING_REACH * texel)]
     assert list(kept) == truth
     assert len(kept) == 47
+
+
+def test_a_level_far_from_the_origin_bakes_as_at_the_origin(ctx, gl_clean):
+    """Levels come with huge coordinates (a map's corner at the origin, a city tile at its
+    survey position): the furnace cube 100 km from the origin holds every texel at
+    rho / (1 - rho) = 1 within 1 %, as at the origin. xatlas, in single floats (8 mm
+    steps there), charted it into no texels at all."""
+    scene = scenes.furnace_cube(0.5)
+    far = dataclasses.replace(scene, vertices=scene.vertices + np.array([1e5, -1e5, 1e5]))
+    solver = Solver(far, Settings(texel_density=8, shoot_level=2, threshold=0.002,
+                                  ambient=False), ctx=ctx)
+    try:
+        solver.run()
+        image, progress = solver.result()[0], solver.progress
+    finally:
+        solver.release()
+    assert progress.converged
+    values = image[image[..., 3] == 1][:, :3]
+    assert len(values) == 6 * 8 * 8
+    assert np.abs(values - 1.0).max() < 0.01
