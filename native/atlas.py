@@ -47,6 +47,7 @@ OVERLAP_BATCH = 1 << 22     # grid centres overlapping_faces tests at once (memo
 SNAP_TEXELS = 1e-3       # a UV corner this close to a texel edge lies on it
 MIN_XATLAS_AREA = 1e-3   # smallest triangle area handed to xatlas, in its units
 MAX_XATLAS_EXTENT = 1e6  # largest scene size handed to xatlas, in its units
+XATLAS_ORIGIN_STEP = 1024.0  # meshes go to xatlas moved by whole steps of this, in its units
 XATLAS_PIECE_TRIANGLES = 8192   # most triangles xatlas charts as one mesh (_pieces)
 # Meshes whose corners (from the corner of their box) agree to this share of the box's
 # size share a layout: a moved copy's corners differ in their last bits.
@@ -675,9 +676,11 @@ def _atlas_of(scene, mesh_triangles, units):
         used, local = np.unique(scene.triangles[members], return_inverse=True)
         # xatlas sizes charts by surface area: scaling an object's copy scales its texels.
         scale = units * scene.object_texel_scale[int(scene.object_index[members[0]])]
-        # From the mesh's own corner: xatlas works in single floats, which 100 km from the
-        # origin step by 8 mm, and there it charted a 1 m cube into nothing.
-        corner = scene.vertices[used].min(axis=0)
-        atlas.add_mesh(((scene.vertices[used] - corner) * scale).astype(np.float32),
+        # Moved near the origin by whole XATLAS_ORIGIN_STEPs: xatlas works in single floats,
+        # which 100 km from the origin step by 8 mm, and there it charted a 1 m cube into
+        # nothing. A mesh within a step of the origin stays where it is, to the bit.
+        units_at = scene.vertices[used] * scale
+        shift = np.trunc(units_at.min(axis=0) / XATLAS_ORIGIN_STEP) * XATLAS_ORIGIN_STEP
+        atlas.add_mesh((units_at - shift).astype(np.float32),
                        local.reshape(-1, 3).astype(np.uint32))
     return atlas
