@@ -67,6 +67,14 @@ _EMITTERS = {"ShaderNodeEmission", "ShaderNodeBackground"}
 
 
 @dataclass
+class _Unevaluable:
+    """Where one kind of problem (_unevaluable) was found: its images or nodes and the
+    materials holding them, each once, in the order met (dicts as ordered sets)."""
+    subjects: dict = field(default_factory=dict)
+    materials: dict = field(default_factory=dict)
+
+
+@dataclass
 class _Bake:
     """The temporary blocks of one evaluation, removed by release()."""
     scene: object = None
@@ -173,7 +181,7 @@ def _make_copies(depsgraph, export, atlas, row_of, bake):
     bake.scene = bpy.data.scenes.new(TEMP_PREFIX + "Scene")
     surfaces = {surface.key: surface for surface in export.surfaces
                 if atlas.object_page[surface.object_index] >= 0}
-    copies, unevaluable = [], {}   # unevaluable: {problem: ({subject: None}, {material: None})}
+    copies, unevaluable = [], {}   # problem: _Unevaluable
     found = []
     for instance in depsgraph.object_instances:
         surface = surfaces.pop(instance_key(instance), None)
@@ -223,16 +231,16 @@ def _make_copies(depsgraph, export, atlas, row_of, bake):
                 if originals[slot] is not None]
         for original in used:
             for problem, subject in _unevaluable(original):
-                found = unevaluable.setdefault(problem, ({}, {}))
-                found[0][subject] = found[1][original.name] = None
+                found = unevaluable.setdefault(problem, _Unevaluable())
+                found.subjects[subject] = found.materials[original.name] = None
         copies.append(_Copy(obj, page, low, size, any(_varies(m) for m in used),
                             any(may_emit(m) for m in used)))
     # One warning per kind of problem: an imported level's hundred materials missing their
     # images would otherwise bury every other warning.
-    export.warnings += [problem.format(images=quoted_names("image", subjects),
-                                       nodes=quoted_names("node", subjects),
-                                       materials=quoted_names("material", materials))
-                        for problem, (subjects, materials) in unevaluable.items()]
+    export.warnings += [problem.format(images=quoted_names("image", found.subjects),
+                                       nodes=quoted_names("node", found.subjects),
+                                       materials=quoted_names("material", found.materials))
+                        for problem, found in unevaluable.items()]
     export.warnings[:] = list(dict.fromkeys(export.warnings))
     return copies
 

@@ -4,6 +4,7 @@ with similar unshot radiance, that no occluder standing in the block hides from 
 rectangle, and the quad they shoot from."""
 from dataclasses import dataclass, field
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -62,13 +63,20 @@ class BlockMaps:
             self.reflectance, self.incoming)))
 
 
+class CrossingOccluders(NamedTuple):
+    """The occluders near a block whose planes have some of its texels on each side."""
+    normals: np.ndarray     # (P, 3)
+    offsets: np.ndarray     # (P,)
+    corners: np.ndarray     # (P, 3, 3)
+
+
 @dataclass
 class ShooterCaches:
     """What shooter construction keeps: the read-back buffer, and per region (texels do not
     move, and blocks are shot many times) the occluders' planes crossing it and its charts."""
     occluders: object                               # geometry.TrianglePlanes
     staging: object                                 # buffer: BLOCK_MAPS of a selection
-    crossing_occluders: dict = field(default_factory=dict)
+    crossing_occluders: dict = field(default_factory=dict)   # Region: CrossingOccluders
     region_charts: dict = field(default_factory=dict)
 
 
@@ -324,9 +332,10 @@ def unblocked_members(caches, region, strongest, members, position, texel_size):
     if region not in caches.crossing_occluders:   # blocks are shot many times: once per block
         caches.crossing_occluders[region] = _occluders_crossing(
             caches.occluders, points[position[:, 3] > 0.0], texel_size)
-    normals, offsets, corners = caches.crossing_occluders[region]
-    if len(offsets) == 0:
+    crossing = caches.crossing_occluders[region]
+    if len(crossing.offsets) == 0:
         return members
+    normals, offsets = crossing.normals, crossing.offsets
     start = points[strongest]
     own = start @ normals.T - offsets                                 # (planes,)
     other = points[members] @ normals.T - offsets                     # (members, planes)
@@ -334,7 +343,7 @@ def unblocked_members(caches, region, strongest, members, position, texel_size):
     crosses = (own * other < 0.0) & (np.abs(own) > margin) & (np.abs(other) > margin)
     share = own / np.where(crosses, own - other, 1.0)                 # along the way
     at = start + share[..., None] * (points[members, None, :] - start)  # (members, planes, 3)
-    near = _near_triangles(at, corners, BLOCKING_REACH * texel_size)
+    near = _near_triangles(at, crossing.corners, BLOCKING_REACH * texel_size)
     return members[~(crosses & near).any(axis=1)]
 
 
@@ -357,11 +366,12 @@ def _near_triangles(points, corners, reach):
 
 
 def _occluders_crossing(occluders, points, texel_size):
-    """Planes (normals, offsets) and corners of the occluders near ``points`` whose planes
-    have some of them on each side."""
+    """The CrossingOccluders of the occluders near ``points`` whose planes have some of them
+    on each side."""
     near = occluders.within(points.min(axis=0) - texel_size, points.max(axis=0) + texel_size)
     normals, offsets = occluders.normals[near], occluders.offsets[near]
     sides = points @ normals.T - offsets
     margin = CROSSING_MARGIN * texel_size
     crossing = (sides.max(axis=0) > margin) & (sides.min(axis=0) < -margin)
-    return normals[crossing], offsets[crossing], occluders.corners[near][crossing]
+    return CrossingOccluders(normals[crossing], offsets[crossing],
+                             occluders.corners[near][crossing])
