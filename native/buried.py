@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .geometry import connected_components
 from .state import read_map
 
 # Points per texel edge at which a texel's surface is tested, off the texel's middle lines
@@ -111,7 +112,10 @@ def _solids(scene):
     keys = np.round(corners.reshape(-1, 3) / (WELD * size)).astype(np.int64)
     _, welded = np.unique(keys, axis=0, return_inverse=True)
     welded = welded.reshape(-1, 3)
-    mesh[triangles] = _connected(welded, int(welded.max()) + 1)
+    # Triangles sharing a welded vertex are one mesh.
+    vertex_mesh = connected_components(int(welded.max()) + 1,
+                                       welded[:, [0, 0]].ravel(), welded[:, [1, 2]].ravel())
+    mesh[triangles] = vertex_mesh[welded[:, 0]]
     if scene.back_of is not None:
         copies = scene.back_of >= 0
         mesh[copies] = mesh[scene.back_of[copies]]
@@ -128,18 +132,6 @@ def _solids(scene):
         if np.einsum("ij,ij->i", about[:, 0], np.cross(about[:, 1], about[:, 2])).sum() > 0.0:
             solids.append((int(labels[start]), part, low, high))
     return mesh, solids
-
-
-def _connected(welded, vertex_count):
-    """Per triangle the number of its connected mesh (triangles sharing welded vertices)."""
-    label = np.arange(vertex_count)
-    while True:
-        least = label[welded].min(axis=1)
-        before = label.copy()
-        np.minimum.at(label, welded.ravel(), np.repeat(least, 3))
-        label = label[label]
-        if np.array_equal(label, before):
-            return label[welded[:, 0]]
 
 
 def _closed(welded):

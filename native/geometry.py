@@ -61,8 +61,14 @@ def smooth_surfaces(scene):
                              np.round((normals * corners[:, 0]).sum(axis=1) / step)])
     _, first, group = np.unique(plane, axis=0, return_index=True, return_inverse=True)
     a, b = np.concatenate([a, np.arange(count)]), np.concatenate([b, first[group.ravel()]])
+    return connected_components(count, a, b)
+
+
+def connected_components(count, a, b):
+    """Per item of ``count`` the number of its connected component, items ``a[i]`` and
+    ``b[i]`` joined, numbered 0, 1, ... by their least item."""
     label = np.arange(count)
-    while True:   # connected components: pull both ends to the smaller label, then jump
+    while True:   # pull both ends to the smaller label, then jump
         joined = np.minimum(label[a], label[b])
         previous = label.copy()
         np.minimum.at(label, a, joined)
