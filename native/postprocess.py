@@ -89,8 +89,14 @@ def received_power(state, irradiance):
     (an estimate needs no double-precision sums; the ledger's are)."""
     received = np.zeros(3)
     for page, page_irradiance in zip(state.pages, irradiance):
-        received = received + (page_irradiance.reshape(-1, 4).T @ page.area.reshape(-1))[:3]
+        received = received + (page_irradiance.reshape(-1, 4).T
+                               @ own_area(page).reshape(-1))[:3]
     return received
+
+
+def own_area(page):
+    """Per texel the area whose received light is its own (Page.share)."""
+    return page.area if page.share is None else page.area * page.share
 
 
 def reflected_start(state, energy, irradiance, correction, unshot_fraction):
@@ -129,10 +135,11 @@ def ambient_term(state, energy, irradiance, correction, start):
     lands = min(max(landed, 0.0) / shot, 1.0) if shot > 0 else 1.0
     materials = [read_map(page.textures["material"]) for page in state.pages]
     receiving = [material[..., 3] > 0 for material in materials]
-    brought_sum = sum(float((page.area * np.maximum(page_brought, 0) * page_receiving).sum())
+    brought_sum = sum(float((own_area(page) * np.maximum(page_brought, 0)
+                             * page_receiving).sum())
                       for page, page_brought, page_receiving in zip(state.pages, brought,
                                                                     receiving))
-    receiving_area = sum(float((page.area * page_receiving).sum())
+    receiving_area = sum(float((own_area(page) * page_receiving).sum())
                          for page, page_receiving in zip(state.pages, receiving))
     full = FULLY_REACHED_SHARE * brought_sum / max(receiving_area, 1e-30)
     reached = [np.clip(page_brought / full, 0.0, 1.0).astype(np.float32) * page_receiving
@@ -140,10 +147,10 @@ def ambient_term(state, energy, irradiance, correction, start):
                for page_brought, page_receiving in zip(brought, receiving)]
     area, albedo_area = 0.0, np.zeros(3)
     for page, material, page_reached in zip(state.pages, materials, reached):
-        weights = page.area * page_reached
-        area += float(weights.sum(dtype=np.float64))
+        # The material map's reflectance is already scaled by each texel's share.
+        area += float((own_area(page) * page_reached).sum(dtype=np.float64))
         albedo_area = albedo_area + (material[..., :3].reshape(-1, 3).T
-                                     @ weights.reshape(-1)).astype(np.float64)
+                                     @ (page.area * page_reached).reshape(-1)).astype(np.float64)
     if area <= 0:
         return Ambient(radiance=np.zeros(3), reached=reached)
     mean_albedo = np.minimum(albedo_area / area, MAX_MEAN_ALBEDO)
@@ -194,8 +201,10 @@ def map_totals(state):
         area = page.area[..., None].astype(np.float64)
         albedo = maps["material"][..., :3] * (maps["material"][..., 3:4] > 0)
         irradiance = maps["irradiance"][..., :3] * area
-        totals["received"] += irradiance.reshape(-1, 3).sum(axis=0)
-        totals["absorbed"] += ((1.0 - albedo) * irradiance).reshape(-1, 3).sum(axis=0)
+        received = irradiance if page.share is None else irradiance * page.share[..., None]
+        totals["received"] += received.reshape(-1, 3).sum(axis=0)
+        # What the texel reflects into the room is the material map's (its share's).
+        totals["absorbed"] += (received - albedo * irradiance).reshape(-1, 3).sum(axis=0)
         totals["unshot"] += math.pi * (maps["unshot"][..., :3] * area).reshape(-1, 3).sum(axis=0)
     return totals
 

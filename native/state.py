@@ -44,6 +44,9 @@ class Page:
     # zeroed as they shoot (the ambient term leaves direct light out).
     emission_left: tuple = (np.zeros(0, np.int64), np.zeros((0, 3)))
     area: np.ndarray = None    # (H, W) float32: each texel's area, m^2 (it does not change)
+    # (H, W) float32: the share of a texel's area that is its own, less where faces drawn
+    # over each other share it (buried.py): what it receives counts at that share. None: 1.
+    share: np.ndarray = None
     # (H, W, 3) float32: the diffuse albedo the lightmap shows (the material map holds what
     # the texel reflects into the room, more where glossy layers reflect too)
     albedo: np.ndarray = None

@@ -49,10 +49,13 @@ bool texel_sees(ivec3 texel, vec2 stored_texel, vec3 point, vec3 normal, float o
     texel_ray(texel, origin, direction);
     float facing = dot(normal, direction);
     float along = facing != 0.0 ? dot(normal, point - origin) / facing : -1.0;
-    // An emitter in the receiver's plane over it (a lamp drawn in the ceiling) takes the
-    // light: both receiving it would make energy.
-    if (!same_surface && stored_key >= 1u && stored_key <= uint(u_emitting_surfaces)
-        && abs(along - stored) <= u_epsilon) return false;
+    // An emitter in the plane of a receiver that does not emit, over it (a lamp drawn in
+    // the ceiling), takes the light: both receiving it would make energy. Coincident faces
+    // that both emit, or neither, share the light by their areas (buried.py).
+    bool receiver_emits = (surface & 0xFFFu) <= uint(u_emitting_surfaces);
+    if (!same_surface && !receiver_emits && stored_key >= 1u
+        && stored_key <= uint(u_emitting_surfaces) && abs(along - stored) <= u_epsilon)
+        return false;
     if (own <= stored + tolerance.other) return true;
     // The own surface, seen where the map texel's ray meets it near the receiver: a floor
     // seen past a wall standing on it is the same surface, but not near.

@@ -193,8 +193,9 @@ def test_a_bake_whose_shots_make_light_stops_with_its_last_good_lightmaps(ctx, g
         progress.unshot_fraction * float(np.mean(ledger.emitted)), rel=1e-3)
 
 
-def closed_block(builder, name, low, high, albedo):
-    """Six outward faces of the box from ``low`` to ``high`` (z up), a closed brush."""
+def closed_block(builder, name, low, high, albedo, emission=0.0):
+    """Six outward faces of the box from ``low`` to ``high`` (z up), a closed brush, each
+    emitting ``emission`` outwards."""
     (x0, y0, z0), (x1, y1, z1) = low, high
     for corners in ([(x0, y0, z0), (x0, y1, z0), (x1, y1, z0), (x1, y0, z0)],    # bottom
                     [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],    # top
@@ -202,7 +203,7 @@ def closed_block(builder, name, low, high, albedo):
                     [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)],
                     [(x1, y1, z0), (x0, y1, z0), (x0, y1, z1), (x1, y1, z1)],
                     [(x0, y1, z0), (x0, y0, z0), (x0, y0, z1), (x0, y1, z1)]):
-        builder.quad(name, corners, (albedo,) * 3)
+        builder.quad(name, corners, (albedo,) * 3, (emission,) * 3, two_sided=False)
 
 
 # (block's low and high corners, m^2 the sun lights: the floor's open part and the top)
@@ -239,6 +240,94 @@ def test_a_floor_through_a_closed_block_receives_on_its_open_part(ctx, gl_clean,
     on_floor = (np.abs(positions[:, 2]) < 1e-6) & (normals[:, 2] > 0.99)
     assert on_floor.any()
     np.testing.assert_allclose(values[on_floor], albedo * strength / math.pi, rtol=0.005)
+
+
+def floor_drawn_twice(builder, albedo):
+    builder.quad("floor_copy", scenes.CUBE_FACES["bottom"], (albedo,) * 3, (1.0,) * 3,
+                 two_sided=False)
+
+
+def rug_on_a_floor_drawn_twice(builder, albedo):
+    floor_drawn_twice(builder, albedo)
+    builder.quad("rug", [(0.2, 0, 0.3), (0.2, 0, 0.8), (0.7, 0, 0.8), (0.7, 0, 0.3)],
+                 (albedo,) * 3, (1.0,) * 3, two_sided=False)
+
+
+def brushes_crossing_at_one_height(builder, albedo):
+    closed_block(builder, "brush", (0.2, 0.2, 0.2), (0.6, 0.6, 0.5), albedo, emission=1.0)
+    closed_block(builder, "brush_1", (0.4, 0.4, 0.2), (0.8, 0.8, 0.5), albedo, emission=1.0)
+
+
+# (what is drawn over what in the furnace cube, the planes it lies in (axis, value), density)
+COINCIDENT_FACES = {
+    "a floor drawn twice": (floor_drawn_twice, [(1, 0.0)], 8),
+    "a rug on a floor drawn twice": (rug_on_a_floor_drawn_twice, [(1, 0.0)], 8),
+    "two brushes crossing, tops and bottoms at one height": (
+        brushes_crossing_at_one_height, [(2, 0.2), (2, 0.5)], 16),
+}
+
+
+@pytest.mark.parametrize("add, planes, density", COINCIDENT_FACES.values(),
+                         ids=COINCIDENT_FACES)
+def test_faces_drawn_over_each_other_in_a_furnace_hold_its_radiance(ctx, gl_clean, add,
+                                                                     planes, density):
+    """Faces in one plane facing one way (z-fighting: a floor drawn twice, a rug over it,
+    brushes crossing with their tops at one height) in the furnace cube, every face emitting
+    1 and reflecting 0.5: each point of their overlap is one surface, so every texel there
+    holds rho E / (1 - rho) = 1, and the light of the room stays the furnace's. Each face
+    received and sent the whole light of the overlap: the floor drawn twice made the walls
+    by it 1.36, and where both emitted, each hid the other (texels at 0)."""
+    albedo = 0.5
+    builder = SceneBuilder()
+    for name, corners in scenes.CUBE_FACES.items():
+        builder.quad(name, corners, (albedo,) * 3, (1.0,) * 3, two_sided=False)
+    add(builder, albedo)
+    solver = Solver(builder.build(), Settings(texel_density=density, shoot_level=2,
+                                              threshold=0.002, ambient=False), ctx=ctx)
+    try:
+        solver.run()
+        images, samples, ledger = solver.result(), solver.texel_samples(), solver.ledger()
+    finally:
+        solver.release()
+    values, positions, normals = occupied_texels(images, samples)
+    on_planes = np.zeros(len(values), dtype=bool)
+    for axis, value in planes:
+        inside = np.all((positions > 0.1) & (positions < 0.9), axis=1) | (value == 0.0)
+        on_planes |= (np.abs(positions[:, axis] - value) < 1e-6) \
+            & (np.abs(normals[:, axis]) > 0.99) & inside
+    assert on_planes.sum() >= 64
+    assert np.abs(values[on_planes, 0] - 1.0).max() < 0.015
+    assert np.median(values[:, 0]) == pytest.approx(1.0, abs=0.01)
+    assert ledger.imbalance() < 1e-4
+    assert abs(ledger.escaped[0] / ledger.emitted[0]) < 0.01
+
+
+def test_a_floor_drawn_twice_reflects_the_light_of_one(ctx, gl_clean):
+    """A closed unit cube of albedo 0.5 lit by its top emitting 1, its floor drawn twice:
+    every watt emitted is absorbed once, so the irradiance summed over the room's surfaces
+    (the floor once) is P / (1 - rho), and the texels' rho H / pi times their areas sum to
+    rho L A_top / (1 - rho) = 1. The floor drawn twice reflected twice: 1.19, and the
+    ledger counted 38 % of the light as received twice."""
+    albedo = 0.5
+    builder = SceneBuilder()
+    for name, corners in scenes.CUBE_FACES.items():
+        builder.quad(name, corners, (albedo,) * 3, (1.0,) * 3 if name == "top" else (0.0,) * 3,
+                     two_sided=False)
+    builder.quad("floor_copy", scenes.CUBE_FACES["bottom"], (albedo,) * 3, two_sided=False)
+    solver = Solver(builder.build(), Settings(texel_density=8, threshold=0.001, ambient=False),
+                    ctx=ctx)
+    try:
+        solver.run()
+        images, samples, ledger = solver.result(), solver.texel_samples(), solver.ledger()
+    finally:
+        solver.release()
+    values, positions, _ = occupied_texels(images, samples)
+    areas = np.concatenate([s["area"][s["occupied"]] for s in samples])
+    drawn = np.where(np.abs(positions[:, 1]) < 1e-6, 2.0, 1.0)
+    assert (drawn == 2.0).sum() == 2 * 64
+    assert (values[:, 0] * areas / drawn).sum() == pytest.approx(1.0, rel=0.005)
+    assert ledger.imbalance() < 1e-4
+    assert abs(ledger.escaped[0] / ledger.emitted[0]) < 0.001
 
 
 def crate_triangles(low, high):
