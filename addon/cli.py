@@ -12,7 +12,7 @@ from ..native import LuxelError
 from ..native.settings import add_options, given_settings
 from .bake import BakeJob, divergence_message, shot_limit_message
 from .compare import compare_with_cycles, summary_lines
-from .writeback import remove_lightmaps
+from .writeback import remove_lightmaps, writable
 
 EXIT_FAILED = 1
 EXIT_USAGE = 2
@@ -39,8 +39,13 @@ def _parser():
     bake.add_argument("--output", metavar="DIR", help="write EXR lightmaps into DIR")
     bake.add_argument("--preview", metavar="PNG",
                       help="render the camera view with the baked lighting (Workbench)")
-    bake.add_argument("--save", action="store_true",
-                      help="save the .blend with the lightmaps (packed, or linked to --output)")
+    saving = bake.add_mutually_exclusive_group()
+    saving.add_argument("--save", action="store_true",
+                        help="save the .blend with the lightmaps (packed, or linked to "
+                        "--output)")
+    saving.add_argument("--save-as", metavar="FILE.blend",
+                        help="save the baked scene as a new .blend, leaving the open one as "
+                        "it was")
     remove = commands.add_parser("remove", help="take away everything Luxel's bakes added")
     remove.add_argument("--save", action="store_true", help="save the .blend afterwards")
     compare = commands.add_parser("compare", help="bake with Luxel and with Cycles; write "
@@ -71,12 +76,23 @@ def execute(argv):
 
 
 def _check(args):
+    unopened = _unopened_blend(sys.argv)
+    if unopened is not None:
+        raise _UsageError(f"'{unopened}' did not open, and Blender went on with its startup "
+                          "scene: check the path and that it is a .blend file")
     if args.command == "remove":
         if args.save and not bpy.data.filepath:
             raise _UsageError("--save needs a .blend file: open one with blender -b FILE.blend")
         return
     if args.command == "bake" and args.save and not bpy.data.filepath:
         raise _UsageError("--save needs a .blend file: open one with blender -b FILE.blend")
+    if args.command == "bake" and args.save_as is not None:
+        target = os.path.abspath(args.save_as)
+        if not target.lower().endswith(".blend"):
+            raise _UsageError(f"--save-as {args.save_as}: name a .blend file")
+        if os.path.isdir(target) or not writable(os.path.dirname(target)):
+            raise _UsageError(f"--save-as {args.save_as}: '{target}' cannot be written: "
+                              "choose a place you may write to")
     if args.command == "compare":
         for option, value in (("--samples", args.samples), ("--view-samples", args.view_samples),
                               ("--views", args.views)):
@@ -84,6 +100,16 @@ def _check(args):
                 raise _UsageError(f"{option} must be 1 or more")
         if args.resolution is not None and min(args.resolution) < 16:
             raise _UsageError("--resolution W H must be at least 16 x 16 pixels")
+
+
+def _unopened_blend(argv):
+    """The last .blend Blender's command line names before --command when no file is open
+    (Blender goes on with its startup file where it cannot read one), else None."""
+    if "--command" not in argv or bpy.data.filepath:
+        return None
+    named = [argument for argument in argv[:argv.index("--command")]
+             if argument.lower().endswith(".blend")]
+    return named[-1] if named else None
 
 
 def _apply_bake_options(args, settings):
@@ -127,6 +153,11 @@ def _bake(args):
     if args.save:
         bpy.ops.wm.save_mainfile()
         print(f"luxel: saved {bpy.data.filepath}", flush=True)
+    if args.save_as is not None:
+        target = os.path.abspath(args.save_as)
+        os.makedirs(os.path.dirname(target), exist_ok=True)
+        bpy.ops.wm.save_as_mainfile(filepath=target, check_existing=False)
+        print(f"luxel: saved {target}", flush=True)
     diverged = divergence_message(stats)
     if diverged:
         print(f"luxel: {diverged}", file=sys.stderr, flush=True)

@@ -4,6 +4,7 @@ The new images and files are made beside the old ones and replace them only once
 is written; a failure on the way (a full disk) undoes what was made, so the .blend and the
 lightmap folder are left as they were."""
 import os
+import tempfile
 
 import bpy
 import numpy as np
@@ -36,7 +37,7 @@ def lightmap_directory(scene):
                             f"'{settings.directory}' has no place: save the file first, or set "
                             "Output to 'Pack into .blend'")
     directory = os.path.abspath(bpy.path.abspath(settings.directory))
-    if not _writable(directory):
+    if not writable(directory):
         raise SettingsError(f"the lightmap folder '{directory}' cannot be written: choose a "
                             "folder you may write to (Render properties > Luxel Lightmaps > "
                             "Folder, or --output), or set Output to 'Pack into .blend'")
@@ -287,12 +288,19 @@ def _remove_file(path):
         os.unlink(path)
 
 
-def _writable(directory):
-    """A folder that exists and may be written, or that can be made."""
+def writable(directory):
+    """A folder that exists and takes a file, or whose nearest existing parent does (a file
+    is made and removed there: permissions alone pass a root user in /proc)."""
     existing = directory
     while not os.path.exists(existing):
         existing = os.path.dirname(existing)
-    return os.path.isdir(existing) and os.access(existing, os.W_OK | os.X_OK)
+    if not os.path.isdir(existing):
+        return False
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            return True
+    except OSError:
+        return False
 
 
 def _make_directory(directory, undo):
@@ -301,7 +309,12 @@ def _make_directory(directory, undo):
     while not os.path.isdir(path):
         missing.append(path)
         path = os.path.dirname(path)
-    os.makedirs(directory, exist_ok=True)
+    try:
+        os.makedirs(directory, exist_ok=True)
+    except OSError as error:
+        raise LuxelError(f"could not make the lightmap folder '{directory}' "
+                         f"({error.strerror or error}): choose a folder you may write to, or "
+                         "set Output to 'Pack into .blend'") from error
     for path in reversed(missing):      # undone from the deepest
         undo.append(lambda path=path: os.rmdir(path))
 

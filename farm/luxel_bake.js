@@ -7,8 +7,8 @@
 // Each task runs, on a Worker whose task types include "luxel":
 //   {blender} {blenderArgs} FILE --command luxel bake --density D --threshold T --output DIR
 // DIR is OUTPUT_ROOT/<job's creation time>-<job ID>/<n>-<file's stem>: a folder of its own for
-// every job and every scene. With "save" on, Blender first saves FILE as a copy in DIR and
-// --save then writes that copy: the listed .blend files themselves are only ever read.
+// every job and every scene. With "save" on, --save-as DIR/<file's name> saves the baked
+// scene there as a new file: the listed .blend files themselves are only ever read.
 
 const SEPARATOR = ";";
 const TASK_TYPE = "luxel";
@@ -41,22 +41,6 @@ const JOB_TYPE = {
     ],
 };
 
-// Run by Blender (--python-expr) before the bake when "save" is on: save the opened file as a
-// copy in the task's --output folder (Blender remaps relative paths to the new place), and fail
-// unless the copy is now the open file, so that --save can only write the copy. The folder is
-// read from Blender's own command line, so no path is ever quoted into Python code (and the code
-// has no braces, which the Manager would take for variables).
-const SAVE_AS_COPY = [
-    "import bpy, os, sys",
-    "argv = sys.argv[sys.argv.index('--command'):]",
-    "folder = os.path.abspath(argv[argv.index('--output') + 1])",
-    "os.makedirs(folder, exist_ok=True)",
-    "copy = os.path.join(folder, os.path.basename(bpy.data.filepath))",
-    "bpy.ops.wm.save_as_mainfile(filepath=copy)",
-    "if not (os.path.isfile(copy) and os.path.samefile(bpy.data.filepath, copy)):",
-    "    raise RuntimeError('the .blend was not saved as ' + copy)",
-].join("\n");
-
 function compileJob(job) {
     const settings = job.settings;
     const blendfiles = blendfileList(settings.blendfiles);
@@ -81,17 +65,19 @@ function compileJob(job) {
     const digits = String(blendfiles.length).length;
     blendfiles.forEach((blendfile, index) => {
         const folder = `${String(index + 1).padStart(digits, "0")}-${path.stem(blendfile)}`;
-        const saveFirst = save ? ["--python-exit-code", "1", "--python-expr", SAVE_AS_COPY] : [];
         const task = author.Task(`bake-${folder}`, TASK_TYPE);
         task.addCommand(author.Command("blender-render", {
             exe: "{blender}",
             exeArgs: "{blenderArgs}",
             argsBefore: [],
             blendfile: blendfile,
-            // Blender runs its arguments in order; --command takes all that follow it.
-            args: [...saveFirst, "--command", "luxel", "bake",
+            // --command takes all that follows it. --save-as writes a new file in the
+            // scene's folder: the listed .blend is only read.
+            args: ["--command", "luxel", "bake",
                    "--density", String(density), "--threshold", String(threshold),
-                   "--output", path.join(jobDir, folder), ...(save ? ["--save"] : [])],
+                   "--output", path.join(jobDir, folder),
+                   ...(save ? ["--save-as", path.join(jobDir, folder, path.basename(blendfile))]
+                       : [])],
         }));
         job.addTask(task);
     });

@@ -7,6 +7,8 @@ import itertools
 import math
 import os
 import re
+import subprocess
+import sys
 from dataclasses import replace
 from types import SimpleNamespace
 
@@ -666,6 +668,91 @@ def test_an_output_folder_that_cannot_be_written_fails_before_the_bake(tmp_path,
         assert "choose a folder you may write to" in line
     assert os.listdir(tmp_path) == ["a file"] and blocker.read_text() == "not a folder"
     assert not scene.luxel.stats.valid and not bpy.data.images
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc")
+def test_an_output_folder_that_takes_no_file_fails_before_the_bake(capsys):
+    """/proc lets root pass a permission check, and takes no file: the folder is tried with
+    a file before the bake, not found after it (the message asked to report a bug)."""
+    scene = room_scene()
+    for folder in ("/proc/luxel-maps", "/proc/self"):
+        assert run_cli(["bake", "--density", "4", "--output", folder]) == 1
+        assert f"the lightmap folder '{folder}' cannot be written" in one_line(capsys)
+    assert not scene.luxel.stats.valid and not bpy.data.images
+
+
+def test_save_as_writes_a_new_file_and_leaves_the_open_one_as_it_was(tmp_path, capsys):
+    """--save-as (the render farm's save) writes the baked scene once, as a new file in a
+    folder it makes, and no backup (.blend1) beside it; the .blend that was opened keeps
+    its bytes; a name that is not a .blend or a place that takes no file is refused before
+    the bake."""
+    room_scene()
+    original = tmp_path / "room.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(original))
+    before = original.read_bytes()
+    (tmp_path / "a file").write_text("not a folder")
+    for target, problem in (("copy.txt", "name a .blend file"),
+                            (str(tmp_path / "a file" / "copy.blend"), "cannot be written")):
+        assert run_cli(["bake", "--density", "4", "--save-as", target]) == 2
+        assert problem in one_line(capsys)
+    copy = tmp_path / "bakes" / "1-room" / "room.blend"
+    assert run_cli(["bake", "--density", "4", "--threshold", "0.05", "--output",
+                    str(copy.parent), "--save-as", str(copy)]) == 0
+    assert f"luxel: saved {copy}" in capsys.readouterr().out
+    assert sorted(p.name for p in copy.parent.iterdir()) == ["Luxel_Scene_0.exr", "room.blend"]
+    assert original.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a file", "bakes", "room.blend"]
+    bpy.ops.wm.open_mainfile(filepath=str(copy))
+    room = bpy.context.scene.objects["room"]
+    assert room.luxel.image is not None and room.luxel.uv_map in room.data.uv_layers
+
+
+def blender_command(*arguments):
+    """tools/blender.py (Blender's command line for the bpy module) run with ``arguments``."""
+    return subprocess.run([sys.executable, str(blender_session.ROOT / "tools" / "blender.py"),
+                           *map(str, arguments)], capture_output=True, text=True, timeout=300)
+
+
+def test_a_render_farms_command_line_bakes_and_bad_files_fail_in_one_line(tmp_path):
+    """What Flamenco runs (its default -b -y, a Python expression run first with
+    --python-exit-code, the file, --command last) bakes through tools/blender.py; a .blend
+    that does not exist, a file that is not one and an option Blender has that bakes do not
+    use each end in one line and a non-zero exit, not a traceback."""
+    room_scene()
+    scene_file = tmp_path / "room.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(scene_file))
+    not_a_blend = tmp_path / "notes.blend"
+    not_a_blend.write_text("not a .blend")
+    for arguments, code, message in (
+            (["-b", "-y", tmp_path / "missing.blend"], 1, "cannot open"),
+            (["-b", "-y", not_a_blend], 1, "cannot open"),
+            (["-b", "--render-anim", scene_file], 2, "--render-anim is not taken here")):
+        result = blender_command(*arguments, "--command", "luxel", "bake")
+        assert result.returncode == code
+        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        assert message in lines[-1] and "Traceback" not in result.stderr
+    folder = tmp_path / "bakes" / "1-room"
+    result = blender_command(
+        "-b", "-y", scene_file, "--python-exit-code", "1", "--python-expr",
+        "import bpy; assert bpy.data.filepath.endswith('room.blend')", "--command", "luxel",
+        "bake", "--density", "4", "--threshold", "0.05", "--output", folder,
+        "--save-as", folder / "room.blend")
+    assert result.returncode == 0, result.stderr
+    assert sorted(p.name for p in folder.iterdir()) == ["Luxel_Scene_0.exr", "room.blend"]
+    failing = blender_command("-b", scene_file, "--python-exit-code", "5", "--python-expr",
+                              "raise RuntimeError('stop here')", "--command", "luxel", "bake")
+    assert failing.returncode == 5 and "stop here" in failing.stderr
+
+
+def test_a_blend_named_on_the_command_line_that_did_not_open_is_refused(tmp_path):
+    """Blender goes on with its startup scene when it cannot read the .blend it was given:
+    a farm would bake the default cube. The command line names it."""
+    blender_session.empty_file()
+    argv = ["blender", "-b", "-y", "/shots/missing.blend", "--command", "luxel", "bake"]
+    assert addon.cli._unopened_blend(argv) == "/shots/missing.blend"
+    assert addon.cli._unopened_blend(argv[:3] + argv[4:]) is None
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "opened.blend"))
+    assert addon.cli._unopened_blend(argv) is None
 
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root may write into a read-only folder")

@@ -9,9 +9,7 @@
 "use strict";
 const test = require("node:test");
 const assert = require("node:assert/strict");
-const { spawnSync } = require("node:child_process");
 const fs = require("node:fs");
-const os = require("node:os");
 const nodePath = require("node:path");
 const { loadJobCompiler } = require("./flamenco.js");
 
@@ -43,7 +41,7 @@ function commandLine(parameters) {
 const CLI = fs.readFileSync(nodePath.join(ROOT, "addon", "cli.py"), "utf8");
 const SETTINGS = fs.readFileSync(nodePath.join(ROOT, "native", "settings.py"), "utf8");
 const BAKE_OPTIONS = new Set([
-    ...[...CLI.matchAll(/\bbake\.add_argument\("(--[\w-]+)"/g)].map((m) => m[1]),
+    ...[...CLI.matchAll(/\b(?:bake|saving)\.add_argument\("(--[\w-]+)"/g)].map((m) => m[1]),
     ...[...SETTINGS.matchAll(/\boption="(--[\w-]+)"/g)].map((m) => m[1]),
 ]);
 
@@ -67,10 +65,10 @@ test("Luxel's command line has the names the job uses", () => {
     assert.match(CLI, /\badd_options\(bake\)/);
     assert.deepEqual([declared("texel_density").option, declared("threshold").option],
                      ["--density", "--threshold"]);
-    for (const option of ["--density", "--threshold", "--output", "--save"]) {
+    for (const option of ["--density", "--threshold", "--output", "--save-as"]) {
         assert.ok(BAKE_OPTIONS.has(option), `luxel bake has no ${option}`);
     }
-    assert.match(CLI, /"--save", action="store_true"/);  // a flag, it takes no value
+    assert.match(CLI, /"--save-as", metavar="FILE.blend"/);  // it takes the file's path
 });
 
 test("JOB_TYPE: label and settings as Flamenco's AvailableJobSetting allows", () => {
@@ -173,74 +171,23 @@ test("--command comes after the .blend file and every Blender option, Luxel's af
     }
 });
 
-test("--save only when save is on, and then the opened file is first saved as a copy", () => {
+test("--save-as only when save is on: a new file in the scene's folder, the listed one only read",
+     () => {
     for (const save of [undefined, false]) {
         const args = submit({ ...BASE, save, blendfiles: "/p/a.blend" })
             .tasks[0].commands[0].parameters.args;
-        assert.ok(!args.includes("--save"), `save ${save}`);
+        assert.ok(!args.includes("--save-as") && !args.includes("--save"), `save ${save}`);
         assert.equal(args[0], "--command");
     }
-    const job = submit({ ...BASE, save: true, blendfiles: "/p/a.blend" });
-    const args = job.tasks[0].commands[0].parameters.args;
-    assert.equal(args[args.length - 1], "--save");
-    // Blender runs arguments in order: the exit code on a Python error is set, then the copy is
-    // saved, then the bake runs.
-    assert.deepEqual(args.slice(0, 3), ["--python-exit-code", "1", "--python-expr"]);
-    assert.equal(args[4], "--command");
-    assert.doesNotMatch(args[3], /[{}]/);  // the Manager would read braces as its variables
-});
-
-// The --python-expr code run by Python against a stand-in bpy: the open file becomes the copy in
-// the task's --output folder, and a save that did not happen stops Blender (the exit code set by
-// --python-exit-code) before the bake and its --save.
-const PYTHON = process.env.PYTHON || "python3";
-const FAKE_BPY = `import os
-class data:
-    filepath = os.environ["BLEND"]
-class _WM:
-    def save_as_mainfile(self, filepath):
-        if os.environ.get("SAVE_FAILS"):
-            return {"CANCELLED"}
-        with open(filepath, "wb") as copy, open(data.filepath, "rb") as opened:
-            copy.write(opened.read())
-        data.filepath = filepath
-        return {"FINISHED"}
-class ops:
-    wm = _WM()
-`;
-
-function runSaveCopy(args, environment) {
-    const code = args[args.indexOf("--python-expr") + 1];
-    // python -c CODE ARGS...: sys.argv is ["-c", ARGS...], like Blender's own argument list
-    // as far as the code reads it (what follows --command).
-    return spawnSync(PYTHON, ["-c", code, ...args], { encoding: "utf8", env: { ...process.env,
-        PYTHONPATH: environment.bpyDir, ...environment.variables } });
-}
-
-test("with save on, the copy is saved in the task's output folder, not over the original", () => {
-    const scratch = fs.mkdtempSync(nodePath.join(os.tmpdir(), "luxel-farm-"));
-    try {
-        fs.writeFileSync(nodePath.join(scratch, "bpy.py"), FAKE_BPY);
-        const original = nodePath.join(scratch, "scene.blend");
-        fs.writeFileSync(original, "original");
-        const outputRoot = nodePath.join(scratch, "bakes");
-        const job = submit({ ...BASE, output_root: outputRoot, save: true, blendfiles: original });
-        const args = job.tasks[0].commands[0].parameters.args;
-        const outputDir = args[args.indexOf("--output") + 1];
-        assert.equal(outputDir, nodePath.join(outputRoot, `2006-01-02_150405-${job.jobID}`,
-                                              "1-scene"));
-
-        const saved = runSaveCopy(args, { bpyDir: scratch, variables: { BLEND: original } });
-        assert.equal(saved.status, 0, saved.stderr || String(saved.error));
-        assert.equal(fs.readFileSync(nodePath.join(outputDir, "scene.blend"), "utf8"), "original");
-
-        fs.rmSync(outputDir, { recursive: true });
-        const failed = runSaveCopy(args, { bpyDir: scratch,
-                                           variables: { BLEND: original, SAVE_FAILS: "1" } });
-        assert.notEqual(failed.status, 0);
-        assert.match(failed.stderr, /not saved as/);
-    } finally {
-        fs.rmSync(scratch, { recursive: true, force: true });
+    const job = submit({ ...BASE, save: true, blendfiles: "/p/a.blend;R:\\shots\\Office.BLEND" });
+    const names = ["1-a/a.blend", "2-Office/Office.BLEND"];
+    for (const [task, name] of job.tasks.map((t, i) => [t, names[i]])) {
+        const args = task.commands[0].parameters.args;
+        assert.equal(args[0], "--command");  // no Python run before the bake
+        assert.deepEqual(args.slice(-2), ["--save-as", `${jobDir(job)}/${name}`]);
+        assert.ok(!args.includes("--save"));
+        const output = args[args.indexOf("--output") + 1];
+        assert.equal(nodePath.posix.dirname(args[args.length - 1]), output);
     }
 });
 
