@@ -24,7 +24,7 @@ SET_UP_SHARE = 0.2
 # What the status bar adds to a stage that Esc cannot cut short.
 UNINTERRUPTIBLE = {
     "evaluating the materials with Cycles":
-        "xatlas and Cycles' bakes cannot be interrupted: Esc is taken once they are done",
+        "Cycles' bakes cannot be interrupted: Esc is taken once they are done",
     "charting": "xatlas cannot be interrupted: Esc is taken once it is done"}
 
 
@@ -59,7 +59,7 @@ class BakeJob:
         self.stages = (
             Stage(EXPORT_STAGE, BUG_FIX, self._export),
             Stage("evaluating the materials with Cycles", BUG_FIX, self._evaluate_materials),
-            Stage("starting the GPU solver", GPU_FIX, self._start_solver),
+            Stage("opening OpenGL", GPU_FIX, self._start_solver),
         )
         self.set_up_progress = SetUpProgress(stage=self.stages[0].name, fraction=0.0)
         self._set_up_pieces = self._set_up()
@@ -118,14 +118,15 @@ class BakeJob:
         shots = min(max(by_shots, by_energy, 0.0), 0.999)
         return SET_UP_SHARE + (1.0 - SET_UP_SHARE) * shots
 
-    def status(self):
+    def status(self, *, takes_esc=False):
+        """What the bake does now, for the status bar or a log line (its caller names Luxel);
+        ``takes_esc``: say where Esc waits for a stage to end."""
         if not self.is_set_up:
             stage = self.set_up_progress.stage
-            note = f" ({UNINTERRUPTIBLE[stage]})" if stage in UNINTERRUPTIBLE else ""
-            return (f"Luxel: {stage}{note}, set-up "
-                    f"{100.0 * self.set_up_progress.fraction:.0f} % done")
+            note = f" ({UNINTERRUPTIBLE[stage]})" if takes_esc and stage in UNINTERRUPTIBLE else ""
+            return f"{stage}{note}, set-up {100.0 * self.set_up_progress.fraction:.0f} % done"
         progress = self.solver.progress
-        return (f"Luxel: {progress.shots:,} of {progress.shot_limit:,} shots, "
+        return (f"{progress.shots:,} of {progress.shot_limit:,} shots, "
                 f"{100.0 * progress.unshot_fraction:.2f} % unshot, "
                 f"{self.solver.texel_count:,} texels")
 

@@ -131,12 +131,12 @@ def _bake(args):
             job.step(seconds=1.0)
             _print_warnings(job)
             if not job.is_set_up:
-                print(job.status(), flush=True)
+                print(f"luxel: {job.status()}", flush=True)
         print(f"luxel: {len(job.export.scene.triangles):,} triangles, "
               f"{job.solver.texel_count:,} texels on {job.solver.atlas.page_count} page(s)",
               flush=True)
         while not job.step(seconds=1.0):
-            print(job.status(), flush=True)
+            print(f"luxel: {job.status()}", flush=True)
     except BaseException:
         job.release()
         raise

@@ -19,7 +19,11 @@ Cycles bakes temporary copies of the evaluated meshes, with temporary copies of 
 materials, each alone in a temporary scene: the user's scene, objects, materials, images,
 render settings and UV maps are never edited, and every temporary block is removed, whatever
 happens."""
+from contextlib import contextmanager
+import ctypes
 from dataclasses import dataclass, field, replace
+import os
+import sys
 
 import bpy
 import numpy as np
@@ -347,9 +351,11 @@ def _bake_pages(copies, atlas, bake):
                                                selected_objects=[copy.obj],
                                                selected_editable_objects=[copy.obj],
                                                active_object=copy.obj, object=copy.obj):
-                    bpy.ops.object.bake(type=kind, pass_filter={'COLOR'}, uv_layer=BAKE_UV,
-                                        margin=0, use_clear=False, target='IMAGE_TEXTURES',
-                                        use_selected_to_active=False, use_cage=False)
+                    with bake_reports_silenced():
+                        bpy.ops.object.bake(type=kind, pass_filter={'COLOR'}, uv_layer=BAKE_UV,
+                                            margin=0, use_clear=False,
+                                            target='IMAGE_TEXTURES',
+                                            use_selected_to_active=False, use_cage=False)
             finally:
                 settings.collection.objects.unlink(copy.obj)
         for copy in chosen:
@@ -523,3 +529,28 @@ def quoted_names(noun, names, most=3):
     shown = ", ".join(f"'{name}'" for name in names[:most])
     return (f"{noun}{'s' if len(names) > 1 else ''} {shown}"
             + (f" and {len(names) - most} more" if len(names) > most else ""))
+
+
+@contextmanager
+def bake_reports_silenced():
+    """In the background Blender prints every bake's "Baking map saved to internal image"
+    on stdout: Luxel's temporary images', which it reads and removes. Blender's stdout goes
+    to the null device for the bake (errors still raise); where the C library cannot be
+    flushed, it is left as it is."""
+    try:
+        flush = ctypes.CDLL(None).fflush
+    except (OSError, AttributeError, TypeError):
+        flush = None
+    if not bpy.app.background or flush is None:
+        yield
+        return
+    sys.stdout.flush()
+    kept = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+        yield
+    finally:
+        flush(None)
+        os.dup2(kept, 1)
+        os.close(kept)

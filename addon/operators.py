@@ -58,7 +58,8 @@ class LUXEL_OT_bake(bpy.types.Operator):
         wm.progress_begin(0, 1000)
         wm.modal_handler_add(self)
         LUXEL_OT_bake._modal_running = True
-        context.workspace.status_text_set(self._job.status() + "  (Esc to cancel)")
+        context.workspace.status_text_set(
+            f"Luxel: {self._job.status(takes_esc=True)}  (Esc to cancel)")
         return {'RUNNING_MODAL'}
 
     def modal(self, context, event):
@@ -77,7 +78,8 @@ class LUXEL_OT_bake(bpy.types.Operator):
             return self._fail(self._job, error)
         self._report_warnings(self._job)
         context.window_manager.progress_update(int(1000 * self._job.fraction()))
-        context.workspace.status_text_set(self._job.status() + "  (Esc to cancel)")
+        context.workspace.status_text_set(
+            f"Luxel: {self._job.status(takes_esc=True)}  (Esc to cancel)")
         if not done:
             return {'RUNNING_MODAL'}
         self._end_modal(context)

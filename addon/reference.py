@@ -14,7 +14,7 @@ import numpy as np
 from ..native.evaluation.texel_error import texel_noise
 from .display import STATE_KEY, strip_display_nodes
 from .export import DEFAULT_ALBEDO
-from .materials import texel_means
+from .materials import bake_reports_silenced, texel_means
 from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, UV_MAP, image_name, snapshot_of
 
 PASS_FILTER = {'DIRECT', 'INDIRECT', 'COLOR'}
@@ -105,9 +105,11 @@ def cycles_reference(context, samples=256, bounces=32, objects=None, seed=0, cop
                 other.select_set(other in targets)
         view_layer.objects.active = targets[0] if targets else None
         if targets:
-            bpy.ops.object.bake(type='DIFFUSE', pass_filter=set(pass_filter), uv_layer=UV_MAP,
-                                margin=0, use_clear=True, target='IMAGE_TEXTURES',
-                                use_selected_to_active=False, use_cage=False)
+            with bake_reports_silenced():
+                bpy.ops.object.bake(type='DIFFUSE', pass_filter=set(pass_filter),
+                                    uv_layer=UV_MAP, margin=0, use_clear=True,
+                                    target='IMAGE_TEXTURES', use_selected_to_active=False,
+                                    use_cage=False)
         for key, image in zip(keys, temporary_images):
             width, height = image.size
             pixels = np.empty(width * height * 4, dtype=np.float32)

@@ -533,7 +533,7 @@ def events_into(driver, stage, pieces):
 
 
 @pytest.mark.parametrize("stage, pieces", (("exporting the scene", 1),
-                                           ("starting the GPU solver", 0),
+                                           ("opening OpenGL", 0),
                                            ("charting", 0), ("preprocessing", 1)))
 def test_esc_in_each_set_up_stage_cancels_and_changes_nothing(one_piece_per_event, stage,
                                                               pieces):
@@ -571,7 +571,7 @@ def test_the_modal_bake_names_each_set_up_stage_and_its_progress_moves_forward(
     assert driver.event('ESC') == {'CANCELLED'}
     named = [stage for stage, _ in itertools.groupby(stage for stage, _ in stages)]
     assert named == ["exporting the scene", "evaluating the materials with Cycles",
-                     "starting the GPU solver", "charting",
+                     "opening OpenGL", "charting",
                      "preprocessing"]
     assert driver.progress == sorted(driver.progress) and driver.progress[-1] > 0
     first = {stage: value for stage, value in reversed(stages)}
@@ -877,8 +877,11 @@ def test_a_converged_bake_does_not_mention_the_shot_limit(capsys):
     out = capsys.readouterr().out
     assert "luxel: done" in out and "shot limit" not in out
     # The set-up's stages, in order, before the shots.
-    assert (out.index("Luxel: charting") < out.index("Luxel: preprocessing")
-            < out.index(" triangles, ") < out.index("luxel: done"))
+    assert (out.index("luxel: opening OpenGL") < out.index("luxel: charting")
+            < out.index("luxel: preprocessing") < out.index(" triangles, ")
+            < out.index("luxel: done"))
+    # A log for the background: no Esc to name, and Luxel's lines all begin "luxel: ".
+    assert "Esc" not in out and "Luxel: " not in out
 
 
 def pixel_values(image):
