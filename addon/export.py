@@ -508,13 +508,19 @@ class _Exporter:
                                 float(strength.default_value), 0.0))
 
     def turn_outwards(self):
-        """A closed mesh whose normals point inwards is baked on its outside, unless it holds
-        a light or another object's centre (a room modelled as a box seen from within)."""
+        """A closed mesh whose normals point inwards is baked on its outside, unless its inside
+        is seen: it emits (a furnace, a room whose walls glow), or it holds a light, the
+        camera or another object's centre (a room modelled as a box seen from within)."""
         c = self.collector
         inside_points = [np.asarray(light.position) for light in self.lights
                          if isinstance(light, PointLight)]
+        camera = self.blender_scene.camera
+        if camera is not None:
+            inside_points.append(np.array(camera.matrix_world.translation))
         centres = [vertices.mean(axis=0) for vertices in c.vertices]
         for inward in self.inward:
+            if c.emission[inward.part].max() > 0.0:
+                continue
             corners = c.vertices[inward.part]
             low, high = corners.min(axis=0), corners.max(axis=0)
             margin = 0.01 * (high - low)
@@ -530,7 +536,8 @@ class _Exporter:
             if inward.receiver is not None:
                 inward.receiver.loops = inward.receiver.loops[:, ::-1].copy()
             self.warn(f"'{inward.name}' is a closed mesh whose normals point inwards, with "
-                      "nothing inside it: it was baked on its outside, the side that is seen; "
+                      "nothing inside it (no light, camera or object) and no emission: it was "
+                      "baked on its outside, the side that is seen; "
                       "recalculate its normals (Edit Mode: Mesh > Normals > Recalculate "
                       "Outside) so that every renderer agrees")
 

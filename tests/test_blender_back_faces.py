@@ -9,6 +9,7 @@ import numpy as np
 
 import blender_scenes
 import blender_session
+from test_blender_addon import texels_of
 from test_blender_parity import assert_close, print_table
 
 bpy = blender_session.blender()
@@ -129,3 +130,48 @@ def test_a_room_seen_from_inside_keeps_its_inward_faces():
                                                               bounces=32))
     print_table(means)
     assert_close(means, {"Room"})
+
+
+def test_a_glowing_box_seen_from_inside_is_a_furnace():
+    """A closed 1 m box with inward normals whose material emits 1 and reflects 0.9: its
+    inside is what is seen (a furnace, a room whose walls glow), so every texel shows
+    rho E / (1 - rho) = 9. It was taken for a mesh with flipped normals and baked on its
+    outside, black."""
+    scene = blender_session.empty_file()
+    box = closed_cube(scene, "Furnace", (0.0, 0.0, 0.5), 1.0,
+                      blender_scenes.material("Furnace", (0.9,) * 3, emission=(1.0,) * 3,
+                                              strength=1.0), inwards=True)
+    blender_scenes.luxel_settings(scene, 8.0, threshold=0.01)
+    job = addon.bake.BakeJob(bpy.context)
+    while not job.step(1.0):
+        pass
+    job.finish()
+    assert not any("point inwards" in w for w in job.warnings)
+    values = texels_of(box)
+    np.testing.assert_allclose(values, 9.0, rtol=0.03)
+
+
+def test_a_closed_box_around_the_camera_keeps_its_inward_faces():
+    """The camera inside a closed box with inward normals sees its inside: kept, no warning
+    (a light outside it reaches nothing there)."""
+    scene = blender_session.empty_file()
+    closed_cube(scene, "Room", (0.0, 0.0, 1.5), 3.0, blender_scenes.material("Room", (0.5,) * 3),
+                inwards=True)
+    blender_scenes.light(scene, "Lamp", 'POINT', (0.0, 0.0, 5.0), energy=POWER)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location = (0.5, -0.5, 1.2)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    blender_scenes.luxel_settings(scene, 4.0, threshold=0.01)
+    job = addon.bake.BakeJob(bpy.context)
+    while not job.step(1.0):
+        pass
+    job.finish()
+    assert not any("point inwards" in w for w in job.warnings)
+    scene.camera = None
+    bpy.data.objects.remove(camera)
+    job = addon.bake.BakeJob(bpy.context)
+    while not job.step(1.0):
+        pass
+    job.release()
+    assert any("'Room' is a closed mesh whose normals point inwards" in w for w in job.warnings)
