@@ -8,8 +8,12 @@ their own UV map), shown as emission, plus the material's own
 emission; on an object the bake did not reach (no luxel_object) the material shows its own
 shader. The first page's node becomes the active node, which Workbench's Texture colour shows
 through the active UV map, so the lightmap UV map becomes the active one of each baked mesh.
-Off: Luxel's nodes go, and the user's active output, active node and active UV map come back.
-Nothing of the user's nodes is edited, so the trees return exactly."""
+An empty material slot of a baked object, or a baked mesh without any, shows the lightmap
+through Luxel's own material (FILL_MATERIAL: Blender's default grey and the nodes above) put
+in while the switch is on: without a material there is nothing to show it in.
+Off: Luxel's nodes and material go, and the user's active output, active node, active UV map
+and empty slots come back. Nothing of the user's nodes is edited, so the trees return
+exactly."""
 import bpy
 
 from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, PAGE_KEY, UV_MAP, UV_MAP_BACK
@@ -17,6 +21,9 @@ from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, PAGE_KEY, UV_MAP, UV_MAP
 NODE_PREFIX = "Luxel "
 STATE_KEY = "luxel_display"      # the user's active output and active node while shown
 UV_STATE_KEY = "active_uv_maps"  # on scene.luxel: each baked mesh's own active UV map
+FILL_MATERIAL = "Luxel Lightmap"
+# On a mesh or an object: the slots Luxel's material fills while shown (-1: one it added).
+FILLED_KEY = "luxel_filled_slots"
 
 
 def set_baked_lighting(scene, show):
@@ -26,9 +33,15 @@ def set_baked_lighting(scene, show):
 
 
 def hide_baked_lighting(scene):
+    for owner in [*bpy.data.meshes, *bpy.data.objects]:
+        if FILLED_KEY in owner:
+            _empty_slots(owner)
     for material in bpy.data.materials:
         if STATE_KEY in material:
             strip_display_nodes(material)
+    fill = bpy.data.materials.get(FILL_MATERIAL)
+    if fill is not None and fill.users == 0:
+        bpy.data.materials.remove(fill)
     settings = scene.luxel
     for mesh_name, uv_name in settings.get(UV_STATE_KEY, {}).items():
         mesh = bpy.data.meshes.get(mesh_name)
@@ -44,7 +57,14 @@ def refresh(scene):
         set_baked_lighting(scene, True)
 
 
+def is_fill(material):
+    """Whether ``material`` is the one Luxel shows lightmaps in on empty slots (a bake reads
+    it as no material)."""
+    return material is not None and material.name == FILL_MATERIAL and FILLED_KEY in material
+
+
 def _show(scene):
+    _fill_empty_slots(scene)
     emission = scene.luxel.get("material_emission", {})
     for material, pages in _baked_materials(scene).items():
         if material.node_tree is None:
@@ -80,6 +100,48 @@ def _baked_materials(scene):
                 found.setdefault(slot.material, {}).update(
                     {number: pages[number] for number in used if number in pages})
     return found
+
+
+def _fill_empty_slots(scene):
+    """Luxel's material in each empty slot of a baked object, and in a slot added to a baked
+    mesh without any; each filled owner (mesh or object, as the slot links) notes which."""
+    fill = None
+    for obj in scene.objects:
+        if obj.type != 'MESH' or obj.luxel.image is None:
+            continue
+        if fill is None:
+            fill = bpy.data.materials.get(FILL_MATERIAL) or _new_fill_material()
+        mesh = obj.data
+        if not obj.material_slots and FILLED_KEY not in mesh:
+            mesh.materials.append(fill)
+            mesh[FILLED_KEY] = [-1]
+            continue
+        for index, slot in enumerate(obj.material_slots):
+            if slot.material is None:
+                owner = obj if slot.link == 'OBJECT' else mesh
+                slot.material = fill
+                owner[FILLED_KEY] = [*owner.get(FILLED_KEY, []), index]
+
+
+def _new_fill_material():
+    material = bpy.data.materials.new(FILL_MATERIAL)
+    if material.node_tree is None:  # Blender before 5.0 makes it on use_nodes
+        material.use_nodes = True   # a Principled BSDF of Blender's default grey
+    material[FILLED_KEY] = True
+    return material
+
+
+def _empty_slots(owner):
+    """Take Luxel's material out of the slots FILLED_KEY lists on ``owner`` (a mesh or an
+    object), and the slot it added."""
+    for index in sorted(owner[FILLED_KEY], reverse=True):
+        if index < 0:   # it had no slot (pop() leaves its objects' slot counts stale)
+            owner.materials.clear()
+        elif isinstance(owner, bpy.types.Object):
+            owner.material_slots[index].material = None
+        else:
+            owner.materials[index] = None
+    del owner[FILLED_KEY]
 
 
 def _instances(owner, obj):

@@ -13,6 +13,7 @@ import numpy as np
 from ..native import PointLight, Scene, SceneError, SetUpProgress, SpotLight, SunLight
 from ..native.atlas import overlapping_faces
 from ..native.scene import UV_TOLERANCE, triangle_areas
+from . import display
 from .materials import instance_key, may_emit
 from .writeback import MODIFIER, UV_MAP, UV_MAP_BACK
 
@@ -340,7 +341,9 @@ class _Exporter:
         normals = corner_normals[vertex_loops]
         triangles = inverse.reshape(-1, 3)
 
-        slots = [slot.material for slot in obj.material_slots] or [None]
+        # Luxel's material on empty slots (Show Baked Lighting) is no material of theirs.
+        slots = [None if display.is_fill(slot.material) else slot.material
+                 for slot in obj.material_slots] or [None]
         material_index = np.clip(material_index, 0, len(slots) - 1)
         if any(slots[slot] is None for slot in np.unique(material_index)):
             self.warn(f"'{name}' has faces without a material (no material, or an empty "

@@ -12,7 +12,7 @@ import bpy
 import numpy as np
 
 from ..native.evaluation.texel_error import texel_noise
-from .display import STATE_KEY, strip_display_nodes
+from .display import STATE_KEY, is_fill, strip_display_nodes
 from .export import DEFAULT_ALBEDO
 from .materials import bake_reports_silenced, texel_means
 from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, UV_MAP, image_name, snapshot_of
@@ -345,7 +345,8 @@ def _baking_material(original, image):
 def _hide_luxel_preview(temporary_materials, slot_changes):
     """With Show Baked Lighting on, the baked objects' materials show their lightmaps as
     emission: every object gets a copy of its material without Luxel's nodes while Cycles
-    bakes, so that Cycles sees the user's shading everywhere."""
+    bakes, and Luxel's material on empty slots is taken out, so that Cycles sees the user's
+    shading everywhere."""
     clean = {}
     for obj in bpy.data.objects:
         if obj.library is not None:
@@ -353,6 +354,10 @@ def _hide_luxel_preview(temporary_materials, slot_changes):
         for index, slot in enumerate(obj.material_slots):
             material = slot.material
             if material is None or STATE_KEY not in material:
+                continue
+            if is_fill(material):   # Luxel's on an empty slot: no material of the user's
+                slot_changes.append((obj, index, material))
+                slot.material = None
                 continue
             if material not in clean:
                 clean[material] = _without_preview(material)

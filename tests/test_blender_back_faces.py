@@ -6,6 +6,7 @@ import importlib
 import math
 
 import numpy as np
+import pytest
 
 import blender_scenes
 import blender_session
@@ -175,3 +176,30 @@ def test_a_closed_box_around_the_camera_keeps_its_inward_faces():
         pass
     job.release()
     assert any("'Room' is a closed mesh whose normals point inwards" in w for w in job.warnings)
+
+
+@pytest.mark.parametrize("slots", ([], [None]), ids=("no slot", "an empty slot"))
+def test_a_mesh_without_a_material_shows_its_lightmap_and_gets_its_slots_back(tmp_path, slots):
+    """A floor without a material (a level imported as one mesh; or an empty slot), baked as
+    Blender's default grey: with Show Baked Lighting and the lamp off, a Cycles render shows
+    what a path-traced render of it in a matte grey of 0.8 shows with the lamp on (Cycles'
+    own surface for no material adds a glossy layer, which a lightmap does not hold). There
+    was no material to show the lightmap in: no pixel lit. Off, its slots are as before."""
+    scene = blender_session.empty_file()
+    floor = blender_scenes.quad(scene, "Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)],
+                                blender_scenes.material("Matte", (0.8,) * 3))
+    lamp = blender_scenes.light(scene, "Lamp", 'POINT', (0.0, 0.0, 1.0), energy=POWER)
+    traced = render_centre(scene, tmp_path, 3.0, looking_up=False)
+    floor.data.materials.clear()
+    bpy.data.materials.remove(bpy.data.materials["Matte"])
+    for slot in slots:
+        floor.data.materials.append(slot)
+    blender_scenes.luxel_settings(scene, 8.0, threshold=0.01)
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    scene.luxel.show_baked = True
+    lamp.hide_render = True
+    assert render_centre(scene, tmp_path, 3.0, looking_up=False) == pytest.approx(traced,
+                                                                                  rel=0.03)
+    scene.luxel.show_baked = False
+    assert list(floor.data.materials) == slots
+    assert addon.display.FILL_MATERIAL not in bpy.data.materials
