@@ -31,6 +31,7 @@ import numpy as np
 from ..native import SceneError, lightmap_atlas
 from ..native.postprocess import fill_gutter
 from .display import NODE_PREFIX, STATE_KEY, strip_display_nodes
+from .writeback import hold_render_uv
 
 MATERIAL_SAMPLES = 32       # Cycles samples per texel of a material that varies
 # A material that cannot vary over a surface bakes SUPERSAMPLE x SUPERSAMPLE sub-texels a
@@ -274,8 +275,9 @@ def _set_bake_uv(mesh, surface, corners, scene, *, in_loops):
         uv[surface.loops.ravel()] = corners.reshape(-1, 2)
     else:
         uv[:] = corners.reshape(-1, 2)
-    # A new map is the active render one only where the mesh has none: the user's materials
-    # still read their own UVs.
+    # The render map stays the user's, or where the mesh has none, the all-zero map that
+    # stands for none: their materials read what they read in a render.
+    hold_render_uv(mesh)
     layer = mesh.uv_layers.new(name=BAKE_UV, do_init=False)
     layer.uv.foreach_set("vector", uv.astype(np.float32).ravel())
     mesh.uv_layers.active = layer

@@ -13,6 +13,12 @@ from ..native import LuxelError, SettingsError, write_exr
 
 UV_MAP = "LuxelLightmap"
 UV_MAP_BACK = "LuxelLightmapBack"   # where back faces that are solved find their texels
+# A mesh without a UV map renders its UV coordinates as 0 (Texture Coordinate > UV), and the
+# first map it gets becomes the one its materials read: an all-zero map made first keeps that
+# look (hold_render_uv). On the mesh, PLACEHOLDER_KEY names it; it goes with the lightmap's
+# map unless the user has filled it since.
+PLACEHOLDER_UV = "UVMap"
+PLACEHOLDER_KEY = "luxel_placeholder_uv"
 PAGE_KEY = "luxel_page"          # ID property marking Luxel's images, with their page number
 # On objects: their slot's offset, and 1 for "baked" (2: with its back faces' texels too).
 OBJECT_OFFSET = "luxel_object"
@@ -182,6 +188,8 @@ def clear_object(obj):
             layer = obj.data.uv_layers.get(name)
             if layer is not None:
                 obj.data.uv_layers.remove(layer)
+        if PLACEHOLDER_KEY in obj.data:
+            _remove_placeholder(obj.data)
     _remove_snapshot(obj)
     for key in (OBJECT_OFFSET, INSTANCER_OFFSET):
         obj.pop(key, None)
@@ -319,9 +327,36 @@ def _make_directory(directory, undo):
         undo.append(lambda path=path: os.rmdir(path))
 
 
+def hold_render_uv(mesh):
+    """Where ``mesh`` has no UV map, an all-zero one as its active and render map (what its
+    materials read where it has none), so that a map added next is not what they read.
+    Returns the map made, or None."""
+    if len(mesh.uv_layers):
+        return None
+    layer = mesh.uv_layers.new(name=PLACEHOLDER_UV, do_init=False)
+    mesh.attributes[layer.name].data.foreach_set(
+        "vector", np.zeros(2 * len(mesh.loops), dtype=np.float32))
+    return layer
+
+
+def _remove_placeholder(mesh):
+    """The map hold_render_uv() made on ``mesh``, unless the user has filled it."""
+    layer = mesh.uv_layers.get(mesh.get(PLACEHOLDER_KEY, ""))
+    if layer is not None:
+        values = np.empty(2 * len(mesh.loops), dtype=np.float32)
+        mesh.attributes[layer.name].data.foreach_get("vector", values)
+        if not values.any():
+            mesh.uv_layers.remove(layer)
+    mesh.pop(PLACEHOLDER_KEY, None)
+
+
 def _write_uv_map(mesh, name, loops, triangle_uv, undo):
     layers = mesh.uv_layers
     layer = layers.get(name)
+    placeholder = hold_render_uv(mesh) if layer is None else None
+    if placeholder is not None:
+        mesh[PLACEHOLDER_KEY] = placeholder.name
+        undo.append(lambda: _remove_placeholder(mesh))
     if layer is None:
         active, active_render = layers.active_index, _active_render_index(layers)
         layer = layers.new(name=name, do_init=False)
