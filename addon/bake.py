@@ -12,6 +12,7 @@ from typing import Callable
 
 from ..native import LuxelError, SceneError, SetUpProgress, Solver
 from . import display
+from .evaluation import RenderEvaluation, differences
 from .export import EXPORT_STAGE, export_steps
 from .materials import evaluate_materials
 from .writeback import lightmap_directory, write_back
@@ -53,6 +54,10 @@ class BakeJob:
         self.export = None
         self.solver = None
         self._warned = 0
+        # The export and the materials read the render's evaluation (evaluation.py).
+        self._render_evaluation = RenderEvaluation(self.scene)
+        self._differences = {obj.name: differences(obj) for obj in self.scene.objects}
+        self._render_evaluation.apply()
         self.depsgraph = context.evaluated_depsgraph_get()
         self._exporting = export_steps(context, self.depsgraph)
         # The set-up, in order: a stage more is a line more.
@@ -157,6 +162,7 @@ class BakeJob:
 
     def release(self):
         """Free the GPU and drop the set-up where it stands: the .blend is as it was."""
+        self._render_evaluation.restore()
         if self._set_up_pieces is not None:
             self._set_up_pieces.close()
             self._set_up_pieces = None
@@ -193,9 +199,20 @@ class BakeJob:
                              "visible mesh (Object properties > Luxel)")
         if self.scene.luxel.output == 'FILES':
             lightmap_directory(self.scene)      # refused now rather than after the bake
+        for name in sorted({receiver.object_name for receiver in self.export.receivers}):
+            found = self._differences.get(name)
+            if found:
+                self.warnings.append(
+                    f"'{name}' is baked as it renders, and the viewport evaluates it "
+                    f"otherwise ({'; '.join(found)}): renders show its lightmap, the viewport "
+                    "may show it black; set the viewport's settings as the render's to see "
+                    "it there")
 
     def _evaluate_materials(self):
-        evaluate_materials(self.depsgraph, self.export, self.settings)
+        try:
+            evaluate_materials(self.depsgraph, self.export, self.settings)
+        finally:
+            self._render_evaluation.restore()
 
     def _start_solver(self):
         """The solver's own set-up (charting, then preprocessing), a piece at a time."""

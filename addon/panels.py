@@ -2,6 +2,7 @@
 object's lightmap."""
 import bpy
 
+from .evaluation import differences
 from .writeback import is_stale
 
 
@@ -152,8 +153,14 @@ class LUXEL_PT_object(bpy.types.Panel):
             column.label(text=f"Image: {settings.image.name}", icon='IMAGE_DATA')
             column.label(text=f"UV map: {settings.uv_map}", icon='UV')
             if is_stale(context.object, context.evaluated_depsgraph_get()):
-                column.label(text="Stale: the modifiers changed since the bake; bake again",
-                             icon='ERROR')
+                if differences(context.object):
+                    column.label(text="Baked as it renders: the viewport evaluates it "
+                                 "otherwise (its modifiers' viewport settings)", icon='INFO')
+                else:
+                    column.label(text="Stale: the modifiers changed since the bake; bake "
+                                 "again", icon='ERROR')
+        for difference in differences(context.object):
+            layout.label(text=f"Viewport and render differ: {difference}", icon='INFO')
 
 
 _register, _unregister = bpy.utils.register_classes_factory(

@@ -203,3 +203,36 @@ def test_a_mesh_without_a_material_shows_its_lightmap_and_gets_its_slots_back(tm
     scene.luxel.show_baked = False
     assert list(floor.data.materials) == slots
     assert addon.display.FILL_MATERIAL not in bpy.data.materials
+
+
+def test_a_sofa_subdivided_more_for_renders_shows_its_lightmap_in_a_render(tmp_path):
+    """A sofa made the usual way (a box, Bevel of 2 segments, Subdivision Surface at
+    Blender's defaults: viewport level 1, render 2) baked at the defaults: a Cycles render
+    with Show Baked Lighting and the lamp off shows its top as a path-traced render does
+    (0.04 of it: the bake fitted the viewport's level 1, the render drew level 2 and showed
+    no lightmap). The bake serves the render; it names the viewport's difference, and the
+    viewport's level is as it was."""
+    scene = blender_session.empty_file()
+    blender_scenes.quad(scene, "Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)],
+                        blender_scenes.material("Floor", (0.5,) * 3))
+    sofa = closed_cube(scene, "Sofa", (0.0, 0.0, 0.3), 1.0,
+                       blender_scenes.material("Sofa", (0.6,) * 3), inwards=False)
+    sofa.scale = (1.0, 0.6, 0.6)
+    bevel = sofa.modifiers.new("Bevel", 'BEVEL')
+    bevel.segments = 2
+    bevel.width = 0.05
+    subdivision = sofa.modifiers.new("Subdivision", 'SUBSURF')
+    assert (subdivision.levels, subdivision.render_levels) == (1, 2)
+    lamp = blender_scenes.light(scene, "Lamp", 'POINT', (0.3, 0.2, 2.0), energy=POWER)
+    traced = render_centre(scene, tmp_path, 2.5, looking_up=False)
+    job = addon.bake.BakeJob(bpy.context)
+    while not job.step(1.0):
+        pass
+    job.finish()
+    assert any(w.startswith("'Sofa' is baked as it renders") and "Levels Viewport 1 and "
+               "Render 2" in w for w in job.warnings)
+    assert (subdivision.levels, subdivision.render_levels) == (1, 2)
+    scene.luxel.show_baked = True
+    lamp.hide_render = True
+    assert render_centre(scene, tmp_path, 2.5, looking_up=False) == pytest.approx(traced,
+                                                                                  rel=0.05)
