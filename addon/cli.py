@@ -18,6 +18,8 @@ EXIT_FAILED = 1
 EXIT_USAGE = 2
 # The lightmaps were written, but from the bake's last checkpoint: its shots made light.
 EXIT_DIVERGED = 3
+# Cycles samples of --preview: enough to smooth the edges of what the lightmaps show.
+PREVIEW_SAMPLES = 16
 
 
 class _UsageError(Exception):
@@ -38,7 +40,7 @@ def _parser():
     add_options(bake)   # the solver's settings; one left out keeps the scene's
     bake.add_argument("--output", metavar="DIR", help="write EXR lightmaps into DIR")
     bake.add_argument("--preview", metavar="PNG",
-                      help="render the camera view with the baked lighting (Workbench)")
+                      help="render the camera view with the baked lighting (Cycles)")
     saving = bake.add_mutually_exclusive_group()
     saving.add_argument("--save", action="store_true",
                         help="save the .blend with the lightmaps (packed, or linked to "
@@ -198,24 +200,26 @@ def _compare(args):
 
 
 def render_preview(scene, path):
-    """Workbench render of the camera view showing the lightmaps; the scene's render and
-    display settings are restored afterwards."""
+    """A Cycles render of the camera view with the baked lighting shown (Show Baked Lighting:
+    each baked surface is its lightmap's emission, so a few samples and no bounces make it),
+    as a PNG through the scene's view transform; the scene's settings are restored after.
+    Cycles runs on the CPU, with no depth buffer for a lamp drawn in the ceiling to fight."""
     if scene.camera is None:
         raise LuxelError("the scene has no camera for the preview: add one or drop --preview")
-    render, shading = scene.render, scene.display.shading
-    saved = (render.engine, render.filepath, render.image_settings.file_format,
-             shading.light, shading.color_type, scene.luxel.show_baked)
+    render, cycles = scene.render, scene.cycles
+    kept = {(render, "engine"): 'CYCLES', (render, "filepath"): path,
+            (render.image_settings, "file_format"): 'PNG', (cycles, "device"): 'CPU',
+            (cycles, "samples"): PREVIEW_SAMPLES, (cycles, "use_adaptive_sampling"): False,
+            (cycles, "use_denoising"): False, (cycles, "max_bounces"): 0,
+            (scene.luxel, "show_baked"): True}
+    saved = {key: getattr(*key) for key in kept}
     try:
-        render.engine = 'BLENDER_WORKBENCH'
-        render.filepath = path
-        render.image_settings.file_format = 'PNG'
-        shading.light = 'FLAT'
-        shading.color_type = 'TEXTURE'
-        scene.luxel.show_baked = True
+        for (owner, name), value in kept.items():
+            setattr(owner, name, value)
         bpy.ops.render.render(write_still=True)
     finally:
-        (render.engine, render.filepath, render.image_settings.file_format,
-         shading.light, shading.color_type, scene.luxel.show_baked) = saved
+        for (owner, name), value in saved.items():
+            setattr(owner, name, value)
 
 
 _command = None

@@ -572,8 +572,24 @@ def test_cli_bake_writes_exr_files_next_to_the_blend(tmp_path):
                                rtol=1e-3, atol=1e-6)
 
 
-def test_workbench_shows_the_lightmap_through_its_own_uv_map(tmp_path):
-    """The user's UV map (all corners at 0, 0) stays theirs; the preview shows the lightmap."""
+def workbench_render(scene, path):
+    """Workbench's render of the camera view in its Texture colour with Show Baked Lighting
+    (what the viewport's Solid mode shows), as a PNG."""
+    render, shading = scene.render, scene.display.shading
+    render.engine = 'BLENDER_WORKBENCH'
+    render.filepath = path
+    render.image_settings.file_format = 'PNG'
+    shading.light = 'FLAT'
+    shading.color_type = 'TEXTURE'
+    scene.luxel.show_baked = True
+    bpy.ops.render.render(write_still=True)
+    scene.luxel.show_baked = False
+
+
+@pytest.mark.parametrize("renderer", ("workbench", "the command line's preview"))
+def test_renders_show_the_lightmap_beside_a_uv_map_of_the_users(tmp_path, renderer):
+    """The user's UV map (all corners at 0, 0) stays theirs; Workbench (through the active
+    UV map) and the --preview render show the lightmap."""
     scene = blender_session.empty_file()
     plane = mesh_object(scene, "plane", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)],
                         [(0, 1, 2, 3)], material("plane", (0.5, 0.5, 0.5)))
@@ -589,7 +605,10 @@ def test_workbench_shows_the_lightmap_through_its_own_uv_map(tmp_path):
     assert plane.data.uv_layers.active.name == "UVMap"
 
     path = tmp_path / "preview.png"
-    blender_session.addon().addon.cli.render_preview(scene, str(path))
+    if renderer == "workbench":
+        workbench_render(scene, str(path))
+    else:
+        blender_session.addon().addon.cli.render_preview(scene, str(path))
     image = bpy.data.images.load(str(path))
     pixels = np.array(image.pixels[:]).reshape(64, 64, 4)
     assert pixels[32, 32, :3].min() > 0.3            # lit under the spot
