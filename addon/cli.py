@@ -144,7 +144,7 @@ def _bake(args):
         raise
     images = job.finish()
     stats = settings.stats
-    print(f"luxel: done: {stats.texels:,} texels, {stats.shots} shots, {stats.unshot:.2f} % "
+    print(f"luxel: done: {stats.texels:,} texels, {stats.shots:,} shots, {stats.unshot:.2f} % "
           f"unshot, {stats.seconds:.1f} s, {len(images)} image(s)", flush=True)
     stopped = shot_limit_message(stats, job.settings.threshold)
     if stopped:

@@ -103,7 +103,7 @@ class LUXEL_OT_bake(bpy.types.Operator):
             return self._fail(job, error)
         self._report_warnings(job)
         stats = job.scene.luxel.stats
-        self.report({'INFO'}, f"Luxel: {stats.texels:,} texels, {stats.shots} shots, "
+        self.report({'INFO'}, f"Luxel: {stats.texels:,} texels, {stats.shots:,} shots, "
                               f"{stats.unshot:.2f} % unshot, {stats.seconds:.1f} s")
         stopped = shot_limit_message(stats, job.settings.threshold)
         if stopped:

@@ -3,6 +3,7 @@ write-back, the baked-lighting switch, renders alongside Luxel's GL context, the
 import dataclasses
 import importlib
 import math
+import os
 from types import SimpleNamespace
 
 import numpy as np
@@ -676,3 +677,20 @@ def test_cornell_box_sample_bakes_every_receiving_face_and_keeps_the_meshes():
         values = texels_of(obj)
         assert np.isfinite(values).all()
         assert (values.max(axis=1) > 0).all(), f"{obj.name} has a face left black"
+
+
+def test_the_readme_quotes_what_make_bake_prints(capsys):
+    """README.md's quote of `make bake` (tools/readme_outputs.py writes it) is what the same
+    bake prints today, seconds aside: its numbers cannot drift from the code's."""
+    import readme_outputs
+    bpy.ops.wm.open_mainfile(filepath=str(blender_session.ROOT / "sample_blends" /
+                                          "cornell_box.blend"))
+    previous = os.getcwd()
+    os.chdir(blender_session.ROOT)
+    try:
+        assert run_cli(readme_outputs.BAKE_ARGUMENTS) == 0
+    finally:
+        os.chdir(previous)
+    printed = readme_outputs.quoted_lines(capsys.readouterr().out)
+    assert readme_outputs.comparable(printed) == readme_outputs.comparable(
+        readme_outputs.readme_quote())
