@@ -203,10 +203,10 @@ class BakeJob:
             found = self._differences.get(name)
             if found:
                 self.warnings.append(
-                    f"'{name}' is baked as it renders, and the viewport evaluates it "
-                    f"otherwise ({'; '.join(found)}): renders show its lightmap, the viewport "
-                    "may show it black; set the viewport's settings as the render's to see "
-                    "it there")
+                    f"'{name}' evaluates otherwise in the viewport and in renders "
+                    f"({'; '.join(found)}): the bake fits the render's, and where the viewport "
+                    "differs it shows the lightmap black; set the viewport's settings as the "
+                    "render's to see it there")
 
     def _evaluate_materials(self):
         try:

@@ -205,13 +205,50 @@ def test_a_mesh_without_a_material_shows_its_lightmap_and_gets_its_slots_back(tm
     assert addon.display.FILL_MATERIAL not in bpy.data.materials
 
 
-def test_a_sofa_subdivided_more_for_renders_shows_its_lightmap_in_a_render(tmp_path):
-    """A sofa made the usual way (a box, Bevel of 2 segments, Subdivision Surface at
-    Blender's defaults: viewport level 1, render 2) baked at the defaults: a Cycles render
-    with Show Baked Lighting and the lamp off shows its top as a path-traced render does
-    (0.04 of it: the bake fitted the viewport's level 1, the render drew level 2 and showed
-    no lightmap). The bake serves the render; it names the viewport's difference, and the
-    viewport's level is as it was."""
+def subdivision_levels_differ(sofa):
+    subdivision = sofa.modifiers.new("Subdivision", 'SUBSURF')
+    assert (subdivision.levels, subdivision.render_levels) == (1, 2)   # Blender's defaults
+    return "Levels Viewport 1 and Render 2"
+
+
+def multires_levels_differ(sofa):
+    multires = sofa.modifiers.new("Multires", 'MULTIRES')
+    with bpy.context.temp_override(object=sofa, active_object=sofa):
+        for _ in range(2):
+            bpy.ops.object.multires_subdivide(modifier="Multires", mode='CATMULL_CLARK')
+    multires.levels, multires.render_levels = 1, 2
+    return "Levels Viewport 1 and Render 2"
+
+
+def array_only_in_renders(sofa):
+    array = sofa.modifiers.new("Array", 'ARRAY')
+    array.count, array.relative_offset_displace = 2, (1.2, 0.0, 0.0)
+    array.show_viewport = False
+    return "is on in renders and off in the viewport"
+
+
+def decimate_in_both(sofa):
+    sofa.modifiers.new("Subdivision", 'SUBSURF').render_levels = 1
+    sofa.modifiers.new("Decimate", 'DECIMATE').ratio = 0.5
+    return None
+
+
+# Modifier stacks whose viewport and render evaluations differ (and one where they agree), on
+# a sofa made the usual way: a box with a Bevel of 2 segments first. (builder: what the
+# bake's report names, None where nothing differs)
+STACKS = {"Subdivision Surface at Blender's defaults": subdivision_levels_differ,
+          "Multires": multires_levels_differ, "an Array only in renders": array_only_in_renders,
+          "Decimate": decimate_in_both}
+
+
+@pytest.mark.parametrize("add_stack", STACKS.values(), ids=STACKS)
+def test_a_sofa_whose_modifiers_render_otherwise_shows_its_lightmap_in_a_render(tmp_path,
+                                                                                 add_stack):
+    """A Cycles render with Show Baked Lighting and the lamp off shows the sofa's top as a
+    path-traced render does, whatever its modifiers' viewport and render settings (0.04 of it
+    with Subdivision at its defaults, viewport level 1 and render 2: the bake fitted level 1,
+    the render drew level 2 and showed no lightmap). The bake serves the render; its report
+    names what the viewport evaluates otherwise, and the viewport's settings stay."""
     scene = blender_session.empty_file()
     blender_scenes.quad(scene, "Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)],
                         blender_scenes.material("Floor", (0.5,) * 3))
@@ -219,20 +256,51 @@ def test_a_sofa_subdivided_more_for_renders_shows_its_lightmap_in_a_render(tmp_p
                        blender_scenes.material("Sofa", (0.6,) * 3), inwards=False)
     sofa.scale = (1.0, 0.6, 0.6)
     bevel = sofa.modifiers.new("Bevel", 'BEVEL')
-    bevel.segments = 2
-    bevel.width = 0.05
-    subdivision = sofa.modifiers.new("Subdivision", 'SUBSURF')
-    assert (subdivision.levels, subdivision.render_levels) == (1, 2)
+    bevel.segments, bevel.width = 2, 0.05
+    named = add_stack(sofa)
+    viewport = [(m.show_viewport, getattr(m, "levels", None)) for m in sofa.modifiers]
     lamp = blender_scenes.light(scene, "Lamp", 'POINT', (0.3, 0.2, 2.0), energy=POWER)
     traced = render_centre(scene, tmp_path, 2.5, looking_up=False)
     job = addon.bake.BakeJob(bpy.context)
     while not job.step(1.0):
         pass
     job.finish()
-    assert any(w.startswith("'Sofa' is baked as it renders") and "Levels Viewport 1 and "
-               "Render 2" in w for w in job.warnings)
-    assert (subdivision.levels, subdivision.render_levels) == (1, 2)
+    reported = [w for w in job.warnings if w.startswith("'Sofa' evaluates otherwise in the viewport and in renders")]
+    assert (named in reported[0]) if named else not reported
+    assert [(m.show_viewport, getattr(m, "levels", None))
+            for m in sofa.modifiers if m.name != addon.writeback.MODIFIER] == viewport
     scene.luxel.show_baked = True
     lamp.hide_render = True
     assert render_centre(scene, tmp_path, 2.5, looking_up=False) == pytest.approx(traced,
                                                                                   rel=0.05)
+
+
+def test_geometry_nodes_reading_is_viewport_are_named_in_the_report():
+    """Geometry nodes that switch on Is Viewport cannot be set to render by a bake: it fits
+    their viewport geometry, and the report and the Object panel's list name the modifier."""
+    scene = blender_session.empty_file()
+    sofa = closed_cube(scene, "Sofa", (0.0, 0.0, 0.3), 1.0,
+                       blender_scenes.material("Sofa", (0.6,) * 3), inwards=False)
+    tree = bpy.data.node_groups.new("Finer For Renders", 'GeometryNodeTree')
+    tree.interface.new_socket("Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
+    tree.interface.new_socket("Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
+    given, result = tree.nodes.new('NodeGroupInput'), tree.nodes.new('NodeGroupOutput')
+    finer = tree.nodes.new('GeometryNodeSubdivisionSurface')
+    switch = tree.nodes.new('GeometryNodeSwitch')
+    switch.input_type = 'GEOMETRY'
+    viewport = tree.nodes.new('GeometryNodeIsViewport')
+    tree.links.new(given.outputs[0], finer.inputs["Mesh"])
+    tree.links.new(viewport.outputs[0], switch.inputs["Switch"])
+    tree.links.new(finer.outputs[0], switch.inputs["False"])
+    tree.links.new(given.outputs[0], switch.inputs["True"])
+    tree.links.new(switch.outputs[0], result.inputs[0])
+    sofa.modifiers.new("Finer", 'NODES').node_group = tree
+    blender_scenes.light(scene, "Lamp", 'POINT', (0.3, 0.2, 2.0), energy=POWER)
+    assert addon.evaluation.differences(sofa) == [
+        "geometry nodes 'Finer' read Is Viewport (the bake fits the viewport's geometry there)"]
+    job = addon.bake.BakeJob(bpy.context)
+    while not job.step(1.0):
+        pass
+    job.release()
+    assert any(w.startswith("'Sofa' evaluates otherwise in the viewport and in renders") and "read Is Viewport" in w
+               for w in job.warnings)
