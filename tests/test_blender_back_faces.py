@@ -76,6 +76,19 @@ def test_back_faces_that_are_solved_are_shown_from_behind(tmp_path):
     assert "LuxelLightmapBack" not in sheet.data.uv_layers
 
 
+def baked(*, write=True):
+    """A bake of the context's scene through a BakeJob, whose warnings it keeps: written
+    into the file, or released once set up and shot."""
+    job = addon.bake.BakeJob(bpy.context)
+    while not job.step(1.0):
+        pass
+    if write:
+        job.finish()
+    else:
+        job.release()
+    return job
+
+
 def closed_cube(scene, name, centre, size, mat, inwards):
     (cx, cy, cz), half = centre, size / 2
     vertices = [(cx + x * half, cy + y * half, cz + z * half)
@@ -99,11 +112,8 @@ def test_a_closed_mesh_with_inward_normals_bakes_its_outside_like_cycles_sees_it
     assert bpy.ops.luxel.bake() == {'FINISHED'}
     cycles = reference.object_means(reference.cycles_reference(bpy.context, samples=256,
                                                                bounces=32))
-    scene = stage_with_cube(inwards=True)
-    job = addon.bake.BakeJob(bpy.context)
-    while not job.step(1.0):
-        pass
-    job.finish()
+    stage_with_cube(inwards=True)
+    job = baked()
     assert any(w.startswith("'Cube' is a closed mesh whose normals point inwards")
                for w in job.warnings)
     # Luxel's means over the texels a Cycles bake covers (one sample: only its coverage is
@@ -122,10 +132,7 @@ def test_a_room_seen_from_inside_keeps_its_inward_faces():
                 inwards=True)
     blender_scenes.light(scene, "Lamp", 'POINT', (0.2, 0.1, 2.0), energy=POWER)
     blender_scenes.luxel_settings(scene, 6.0, threshold=0.01)
-    job = addon.bake.BakeJob(bpy.context)
-    while not job.step(1.0):
-        pass
-    job.finish()
+    job = baked()
     assert not any("point inwards" in w for w in job.warnings)
     means = reference.object_means(reference.cycles_reference(bpy.context, samples=128,
                                                               bounces=32))
@@ -143,10 +150,7 @@ def test_a_glowing_box_seen_from_inside_is_a_furnace():
                       blender_scenes.material("Furnace", (0.9,) * 3, emission=(1.0,) * 3,
                                               strength=1.0), inwards=True)
     blender_scenes.luxel_settings(scene, 8.0, threshold=0.01)
-    job = addon.bake.BakeJob(bpy.context)
-    while not job.step(1.0):
-        pass
-    job.finish()
+    job = baked()
     assert not any("point inwards" in w for w in job.warnings)
     values = texels_of(box)
     np.testing.assert_allclose(values, 9.0, rtol=0.03)
@@ -164,17 +168,11 @@ def test_a_closed_box_around_the_camera_keeps_its_inward_faces():
     scene.collection.objects.link(camera)
     scene.camera = camera
     blender_scenes.luxel_settings(scene, 4.0, threshold=0.01)
-    job = addon.bake.BakeJob(bpy.context)
-    while not job.step(1.0):
-        pass
-    job.finish()
+    job = baked()
     assert not any("point inwards" in w for w in job.warnings)
     scene.camera = None
     bpy.data.objects.remove(camera)
-    job = addon.bake.BakeJob(bpy.context)
-    while not job.step(1.0):
-        pass
-    job.release()
+    job = baked(write=False)
     assert any("'Room' is a closed mesh whose normals point inwards" in w for w in job.warnings)
 
 
@@ -261,10 +259,7 @@ def test_a_sofa_whose_modifiers_render_otherwise_shows_its_lightmap_in_a_render(
     viewport = [(m.show_viewport, getattr(m, "levels", None)) for m in sofa.modifiers]
     lamp = blender_scenes.light(scene, "Lamp", 'POINT', (0.3, 0.2, 2.0), energy=POWER)
     traced = render_centre(scene, tmp_path, 2.5, looking_up=False)
-    job = addon.bake.BakeJob(bpy.context)
-    while not job.step(1.0):
-        pass
-    job.finish()
+    job = baked()
     reported = [w for w in job.warnings if w.startswith("'Sofa' evaluates otherwise in the viewport and in renders")]
     assert (named in reported[0]) if named else not reported
     assert [(m.show_viewport, getattr(m, "levels", None))
@@ -298,9 +293,6 @@ def test_geometry_nodes_reading_is_viewport_are_named_in_the_report():
     blender_scenes.light(scene, "Lamp", 'POINT', (0.3, 0.2, 2.0), energy=POWER)
     assert addon.evaluation.differences(sofa) == [
         "geometry nodes 'Finer' read Is Viewport (the bake fits the viewport's geometry there)"]
-    job = addon.bake.BakeJob(bpy.context)
-    while not job.step(1.0):
-        pass
-    job.release()
+    job = baked(write=False)
     assert any(w.startswith("'Sofa' evaluates otherwise in the viewport and in renders") and "read Is Viewport" in w
                for w in job.warnings)

@@ -10,7 +10,7 @@ import pytest
 
 import analytic
 import scenes
-from test_hard_cases import occupied_texels
+from test_hard_cases import occupied_texels, solve
 from native import Settings, Solver, SunLight, receivers, shooters
 from native.geometry import TrianglePlanes
 from native.samples import SceneBuilder
@@ -282,13 +282,8 @@ def test_faces_drawn_over_each_other_in_a_furnace_hold_its_radiance(ctx, gl_clea
     for name, corners in scenes.CUBE_FACES.items():
         builder.quad(name, corners, (albedo,) * 3, (1.0,) * 3, two_sided=False)
     add(builder, albedo)
-    solver = Solver(builder.build(), Settings(texel_density=density, shoot_level=2,
-                                              threshold=0.002, ambient=False), ctx=ctx)
-    try:
-        solver.run()
-        images, samples, ledger = solver.result(), solver.texel_samples(), solver.ledger()
-    finally:
-        solver.release()
+    images, samples, ledger, _, _ = solve(builder.build(), ctx, texel_density=density,
+                                          shoot_level=2, threshold=0.002)
     values, positions, normals = occupied_texels(images, samples)
     on_planes = np.zeros(len(values), dtype=bool)
     for axis, value in planes:
@@ -314,13 +309,8 @@ def test_a_floor_drawn_twice_reflects_the_light_of_one(ctx, gl_clean):
         builder.quad(name, corners, (albedo,) * 3, (1.0,) * 3 if name == "top" else (0.0,) * 3,
                      two_sided=False)
     builder.quad("floor_copy", scenes.CUBE_FACES["bottom"], (albedo,) * 3, two_sided=False)
-    solver = Solver(builder.build(), Settings(texel_density=8, threshold=0.001, ambient=False),
-                    ctx=ctx)
-    try:
-        solver.run()
-        images, samples, ledger = solver.result(), solver.texel_samples(), solver.ledger()
-    finally:
-        solver.release()
+    images, samples, ledger, _, _ = solve(builder.build(), ctx, texel_density=8,
+                                          threshold=0.001)
     values, positions, _ = occupied_texels(images, samples)
     areas = np.concatenate([s["area"][s["occupied"]] for s in samples])
     drawn = np.where(np.abs(positions[:, 1]) < 1e-6, 2.0, 1.0)
