@@ -739,6 +739,11 @@ def test_a_render_farms_command_line_bakes_and_bad_files_fail_in_one_line(tmp_pa
         "--save-as", folder / "room.blend")
     assert result.returncode == 0, result.stderr
     assert sorted(p.name for p in folder.iterdir()) == ["Luxel_Scene_0.exr", "room.blend"]
+    # A log a farm keeps: Luxel's lines and Blender's reading and saving the file, nothing
+    # that reads as an error (Cycles' temporary bakes printed a line each).
+    assert "Baking map saved" not in result.stdout and not result.stderr.strip()
+    assert all(line.startswith("luxel: ") or " | " in line or line.startswith("Info: Saved")
+               for line in result.stdout.splitlines() if line.strip()), result.stdout
     failing = blender_command("-b", scene_file, "--python-exit-code", "5", "--python-expr",
                               "raise RuntimeError('stop here')", "--command", "luxel", "bake")
     assert failing.returncode == 5 and "stop here" in failing.stderr
