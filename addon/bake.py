@@ -58,8 +58,12 @@ class BakeJob:
         self._render_evaluation = RenderEvaluation(self.scene)
         self._differences = {obj.name: differences(obj) for obj in self.scene.objects}
         self._render_evaluation.apply()
-        self.depsgraph = context.evaluated_depsgraph_get()
-        self._exporting = export_steps(context, self.depsgraph)
+        try:
+            self.depsgraph = context.evaluated_depsgraph_get()
+            self._exporting = export_steps(context, self.depsgraph)
+        except BaseException:
+            self._render_evaluation.restore()
+            raise
         # The set-up, in order: a stage more is a line more.
         self.stages = (
             Stage(EXPORT_STAGE, BUG_FIX, self._export),
