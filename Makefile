@@ -32,7 +32,7 @@ $(VENV)/.bench: requirements-bench.txt $(VENV)/.blender
 
 bake: $(VENV)/.blender
 	$(BIN)/python tools/blender.py -b sample_blends/cornell_box.blend --command luxel bake \
-		--density 100 --threshold 0.01 --output out/cornell --preview out/cornell/preview.png
+		--density 50 --threshold 0.01 --output out/cornell --preview out/cornell/preview.png
 
 # The tests that load Blender run in a process of their own: Mesa's GL, used after Blender in
 # the same process, aborted in a later test (the deadlock seen in full runs was xatlas's, see

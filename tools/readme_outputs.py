@@ -10,7 +10,7 @@ import sys
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 # The bake `make bake` runs (Makefile), from the repository's root.
-BAKE_ARGUMENTS = ["bake", "--density", "100", "--threshold", "0.01", "--output", "out/cornell",
+BAKE_ARGUMENTS = ["bake", "--density", "50", "--threshold", "0.01", "--output", "out/cornell",
                   "--preview", "out/cornell/preview.png"]
 BEGIN, END = "<!-- make bake prints: begin -->", "<!-- make bake prints: end -->"
 # Lines a bake prints every second while it shoots: left out of the quote.
