@@ -147,6 +147,13 @@ def _set_property(obj, key, value, undo):
 
 
 def _write_uvs(obj, receiver, triangle_uv, back_uv, undo):
+    # The lightmap's map, in the mesh or added by Luxel's modifier, must not become the one
+    # the materials read where the mesh has none.
+    if isinstance(obj.data, bpy.types.Mesh):
+        placeholder = hold_render_uv(obj.data)
+        if placeholder is not None:
+            obj.data[PLACEHOLDER_KEY] = placeholder.name
+            undo.append(lambda mesh=obj.data: _remove_placeholder(mesh))
     if receiver.uv_source == 'MESH':
         _remove_snapshot(obj)
         _write_uv_map(obj.data, UV_MAP, receiver.loops, triangle_uv, undo)
@@ -353,10 +360,6 @@ def _remove_placeholder(mesh):
 def _write_uv_map(mesh, name, loops, triangle_uv, undo):
     layers = mesh.uv_layers
     layer = layers.get(name)
-    placeholder = hold_render_uv(mesh) if layer is None else None
-    if placeholder is not None:
-        mesh[PLACEHOLDER_KEY] = placeholder.name
-        undo.append(lambda: _remove_placeholder(mesh))
     if layer is None:
         active, active_render = layers.active_index, _active_render_index(layers)
         layer = layers.new(name=name, do_init=False)
