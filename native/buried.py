@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import connected_components, tangents_of
+from .geometry import TrianglePlanes, connected_components, tangents_of
 from .state import read_map
 
 # Points per texel edge at which a texel's surface is tested, off the texel's middle lines
@@ -54,8 +54,9 @@ def keep_open_parts(state):
             points.update(zip(missing.tolist(), _surface_points(scene, atlas, missing)))
         return [points[c] for c in many.tolist()] if np.ndim(charted) else points[charted]
 
-    _bury_in_solids(scene, atlas, points_of)
-    _share_coincident_faces(scene, atlas, state.bounds.epsilon, points_of)
+    planes = TrianglePlanes(scene.vertices[scene.triangles[atlas.triangles]])
+    _bury_in_solids(scene, atlas, planes, points_of)
+    _share_coincident_faces(scene, atlas, planes, state.bounds.epsilon, points_of)
     found = [points[charted] for charted in sorted(points) if (points[charted].kept < 1).any()]
     if not found:
         return
@@ -68,16 +69,13 @@ def keep_open_parts(state):
             _shrink(map_page, texel[here], position[here], area[here], kept[here])
 
 
-def _bury_in_solids(scene, atlas, points_of):
-    """Keep nothing of the charted triangles' points inside a closed brush."""
+def _bury_in_solids(scene, atlas, planes, points_of):
+    """Keep nothing of the charted triangles' points (``planes``: their TrianglePlanes)
+    inside a closed brush."""
     mesh, solids = _solids(scene)
     if not solids:
         return
-    corners = scene.vertices[scene.triangles[atlas.triangles]]
-    low, high = corners.min(axis=1), corners.max(axis=1)
-    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
-    offset = np.einsum("ij,ij->i", normal, corners[:, 0])
+    low, high, normal, offset = planes.low, planes.high, planes.normals, planes.offsets
     # How far in front of its surface a triangle's points are tested (_surface_points).
     lift = LIFT * np.sqrt(scene.triangle_area[atlas.triangles]
                           / np.maximum(_uv_areas(atlas.texels), 1e-30))
@@ -103,17 +101,16 @@ def _bury_in_solids(scene, atlas, points_of):
                 found.kept[where[buried]] = 0.0
 
 
-def _share_coincident_faces(scene, atlas, epsilon, points_of):
+def _share_coincident_faces(scene, atlas, planes, epsilon, points_of):
     """Where charted triangles overlap in one plane facing one way, each keeps of a point
     they share its share: 1 / (the faces there); an emitting face keeps a point from those
     that do not emit (a lamp drawn in the ceiling's plane covers the ceiling, as the
     visibility test has it)."""
-    corners = scene.vertices[scene.triangles[atlas.triangles]]
-    pairs = coincident_pairs(corners, epsilon)
+    pairs = coincident_pairs(planes, epsilon)
     if not len(pairs):
         return
     emits = scene.emission[atlas.triangles].max(axis=1) > 0.0
-    inward, offsets = _edge_planes(corners)
+    inward, offsets = _edge_planes(planes.corners)
     # A texel's share is over the points of all the triangles in it: sample those that share
     # a texel with a coincident one too.
     points_of(_sharing_texels(atlas, np.unique(pairs)))
@@ -148,13 +145,11 @@ def _sharing_texels(atlas, charted):
     return np.concatenate(found)
 
 
-def coincident_pairs(corners, epsilon):
-    """Pairs (i, j), i < j, of the triangles ``corners`` (T, 3, 3) that lie in one plane
-    (each one's corners within ``epsilon`` of the other's plane), face one way and overlap
-    over more than ``epsilon`` across: triangles that only meet along an edge are no pair."""
-    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
-    offset = np.einsum("ij,ij->i", normal, corners[:, 0])
+def coincident_pairs(triangles, epsilon):
+    """Pairs (i, j), i < j, of the triangles (TrianglePlanes) that lie in one plane (each
+    one's corners within ``epsilon`` of the other's plane), face one way and overlap over
+    more than ``epsilon`` across: triangles that only meet along an edge are no pair."""
+    corners, normal, offset = triangles.corners, triangles.normals, triangles.offsets
     # Planes: triangles of one rounded normal whose offsets follow each other within
     # epsilon; each plane's triangles in the frame of their rounded normal.
     keys, direction = np.unique(np.round(normal * NORMAL_STEPS).astype(np.int64), axis=0,
