@@ -11,7 +11,7 @@ import pytest
 import analytic
 import scenes
 from test_hard_cases import occupied_texels, solve
-from native import Settings, Solver, SunLight, receivers, shooters
+from native import Settings, Solver, SunLight, buried, receivers, shooters
 from native.geometry import TrianglePlanes
 from native.samples import SceneBuilder
 
@@ -389,3 +389,26 @@ def test_a_level_far_from_the_origin_bakes_as_at_the_origin(ctx, gl_clean):
     values = image[image[..., 3] == 1][:, :3]
     assert len(values) == 6 * 8 * 8
     assert np.abs(values - 1.0).max() < 0.01
+
+
+def test_faces_in_one_plane_pair_where_they_overlap_not_where_they_touch():
+    """buried.coincident_pairs on triangles a level has: a quad's two triangles (they share
+    an edge: no pair), its copy with its corners in another order (each triangle over its
+    twin), a twin facing the other way, a copy 1 mm above, a triangle over a corner of the
+    quad by 1 cm (over both of its triangles there), one touching it at a corner only, and a
+    copy tilted to rise 1 mm over the 4 m quad: the truth worked out by hand."""
+    epsilon = 1e-4
+    quad = np.array([[[0, 0, 0], [4, 0, 0], [4, 4, 0]], [[0, 0, 0], [4, 4, 0], [0, 4, 0]]],
+                    dtype=np.float64)
+    copy = quad[:, [1, 2, 0]]
+    facing_down = quad[:, ::-1]
+    above = quad + [0.0, 0.0, 1e-3]
+    corner = np.array([[[3.99, 3.99, 0], [6, 3.99, 0], [3.99, 6, 0]]])   # 1 cm into the quad
+    beside = np.array([[[4, 0, 0], [6, 0, 0], [6, 2, 0]]])               # at (4, 0) only
+    tilted = quad.copy()
+    tilted[..., 2] = 1e-3 * tilted[..., 0] / 4.0
+    corners = np.concatenate([quad, copy, facing_down, above, corner, beside, tilted])
+    pairs = {tuple(p) for p in buried.coincident_pairs(TrianglePlanes(corners), epsilon)}
+    # 0, 1: the quad; 2, 3: its copy; 4, 5 facing down; 6, 7 above; 8 corner; 9 beside;
+    # 10, 11 tilted (its corners 1 mm off at x = 4: not in the quad's plane).
+    assert pairs == {(0, 2), (1, 3), (0, 8), (1, 8), (2, 8), (3, 8)}
