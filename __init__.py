@@ -15,4 +15,17 @@ def unregister():
     unregister_addon()
 
 
+# Blender's glTF exporter looks these up on each enabled add-on's module.
+_GLTF_EXPORT_HOOKS = {"glTF2ExportUserExtension": "LightmapExtension",
+                      "glTF2_pre_export_callback": "pre_export_callback",
+                      "glTF2_post_export_callback": "post_export_callback"}
+
+
+def __getattr__(name):
+    if name not in _GLTF_EXPORT_HOOKS:
+        raise AttributeError(name)
+    from .addon import gltf_export
+    return getattr(gltf_export, _GLTF_EXPORT_HOOKS[name])
+
+
 __all__ = ["register", "unregister"]

@@ -144,9 +144,11 @@ class BakeJob:
         try:
             with _failures_named("reading the lightmaps from the GPU", GPU_FIX):
                 pages = self.solver.result()
+                irradiance = self.solver.result(reflected=False)
             progress = self.solver.progress
             with _failures_named("writing the lightmaps", BUG_FIX):
-                images = write_back(self.scene, self.export, self.solver.atlas, pages)
+                images = write_back(self.scene, self.export, self.solver.atlas, pages,
+                                    irradiance)
             settings = self.scene.luxel
             settings["material_emission"] = {name: list(value) for name, value in
                                              self.export.emission_of_material.items()}

@@ -1,5 +1,5 @@
-"""``blender -b scene.blend --command luxel bake|compare ...``: a headless bake, or a comparison
-with Cycles, for pipelines. Progress goes to stdout; a failure prints one line to stderr and
+"""``blender -b scene.blend --command luxel bake|compare|export|view ...``: a headless bake, a
+comparison with Cycles, a glTF file with the lightmaps or a page showing it, for pipelines. Progress goes to stdout; a failure prints one line to stderr and
 exits non-zero."""
 import argparse
 from dataclasses import replace
@@ -12,6 +12,7 @@ from ..native import LuxelError
 from ..native.settings import add_options, given_settings
 from .bake import BakeJob, divergence_message, shot_limit_message
 from .compare import compare_with_cycles, summary_lines
+from .gltf_export import export_gltf
 from .writeback import remove_lightmaps, writable
 
 EXIT_FAILED = 1
@@ -48,6 +49,18 @@ def _parser():
     saving.add_argument("--save-as", metavar="FILE.blend",
                         help="save the baked scene as a new .blend, leaving the open one as "
                         "it was")
+    export = commands.add_parser("export", help="write the baked scene as glTF, each object's "
+                                 "lightmap in its material (MOZ_lightmap, TEXCOORD_1)")
+    export.add_argument("--gltf", metavar="FILE.glb", required=True,
+                        help="the .glb (or .gltf) file to write")
+    view = commands.add_parser("view", help="export the baked scene to FILE.glb and show it "
+                               "in a web page served on this computer (127.0.0.1)")
+    view.add_argument("glb", metavar="FILE.glb", help="the GLB file to write and show")
+    view.add_argument("--folder", metavar="DIR", help="where the page goes (default: the "
+                      "GLB's name without .glb, beside it)")
+    view.add_argument("--port", type=int, default=8000, help="the port to serve on (0: any)")
+    view.add_argument("--no-serve", action="store_true",
+                      help="write the page's folder and stop, serving nothing")
     remove = commands.add_parser("remove", help="take away everything Luxel's bakes added")
     remove.add_argument("--save", action="store_true", help="save the .blend afterwards")
     compare = commands.add_parser("compare", help="bake with Luxel and with Cycles; write "
@@ -71,7 +84,8 @@ def execute(argv):
         print(f"luxel: {error}", file=sys.stderr)
         return EXIT_USAGE
     try:
-        return {"bake": _bake, "remove": _remove, "compare": _compare}[args.command](args)
+        return {"bake": _bake, "remove": _remove, "compare": _compare, "export": _export,
+                "view": _view}[args.command](args)
     except LuxelError as error:
         print(f"luxel: {args.command} failed: {error}", file=sys.stderr)
         return EXIT_FAILED
@@ -196,6 +210,34 @@ def _compare(args):
     for line in summary_lines(report):
         print(f"luxel: {line}", flush=True)
     print(f"luxel: report {os.path.join(options.directory, 'report.html')}", flush=True)
+    return 0
+
+
+def _export(args):
+    objects = export_gltf(bpy.context, args.gltf)
+    print(f"luxel: wrote {args.gltf} with the lightmaps of {len(objects)} object(s)", flush=True)
+    return 0
+
+
+def _view(args):
+    glb = os.path.abspath(args.glb)
+    if not glb.lower().endswith(".glb"):
+        raise LuxelError(f"'{args.glb}': name a .glb file for the page to show")
+    from .viewer import serve, write_viewer
+    export_gltf(bpy.context, glb)
+    folder = os.path.abspath(args.folder or os.path.splitext(glb)[0])
+    write_viewer(glb, folder)
+    print(f"luxel: wrote the page {os.path.join(folder, 'index.html')}", flush=True)
+    if args.no_serve:
+        return 0
+    server = serve(folder, port=args.port)
+    print(f"luxel: serving {server.url} (Ctrl+C stops)", flush=True)
+    try:
+        server.wait()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.shutdown()
     return 0
 
 

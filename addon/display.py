@@ -105,21 +105,21 @@ def _baked_materials(scene):
 def _fill_empty_slots(scene):
     """Luxel's material in each empty slot of a baked object, and in a slot added to a baked
     mesh without any; each filled owner (mesh or object, as the slot links) notes which."""
-    fill = None
+    def fill():     # made only where a slot needs it: an unused one would linger
+        return bpy.data.materials.get(FILL_MATERIAL) or _new_fill_material()
+
     for obj in scene.objects:
         if obj.type != 'MESH' or obj.luxel.image is None:
             continue
-        if fill is None:
-            fill = bpy.data.materials.get(FILL_MATERIAL) or _new_fill_material()
         mesh = obj.data
         if not obj.material_slots and FILLED_KEY not in mesh:
-            mesh.materials.append(fill)
+            mesh.materials.append(fill())
             mesh[FILLED_KEY] = [-1]
             continue
         for index, slot in enumerate(obj.material_slots):
             if slot.material is None:
                 owner = obj if slot.link == 'OBJECT' else mesh
-                slot.material = fill
+                slot.material = fill()
                 owner[FILLED_KEY] = [*owner.get(FILLED_KEY, []), index]
 
 

@@ -92,6 +92,10 @@ class LuxelSceneSettings(bpy.types.PropertyGroup):
                              update=_show_baked_changed,
                              description="Display the baked lightmaps in EEVEE, Cycles and "
                              "Workbench; turning it off restores the materials exactly")
+    gltf_lightmaps: BoolProperty(name="Luxel Lightmaps in glTF", default=True,
+                                 description="glTF export: each baked object's lightmap UVs "
+                                 "as TEXCOORD_1 and its lightmap in its material "
+                                 "(MOZ_lightmap), as three.js reads it")
     stats: PointerProperty(type=LuxelBakeStats)
     comparison: PointerProperty(type=LuxelComparison)
 

@@ -1,5 +1,6 @@
 """Bake results into the .blend: one float image per atlas page (packed, or EXR files next to
-the .blend), a lightmap UV map on each receiving mesh, and each object's ``luxel`` record.
+the .blend) and one of the irradiance that page reflects (what glTF export writes), a lightmap
+UV map on each receiving mesh, and each object's ``luxel`` record.
 The new images and files are made beside the old ones and replace them only once everything
 is written; a failure on the way (a full disk) undoes what was made, so the .blend and the
 lightmap folder are left as they were."""
@@ -20,6 +21,7 @@ UV_MAP_BACK = "LuxelLightmapBack"   # where back faces that are solved find thei
 PLACEHOLDER_UV = "UVMap"
 PLACEHOLDER_KEY = "luxel_placeholder_uv"
 PAGE_KEY = "luxel_page"          # ID property marking Luxel's images, with their page number
+IRRADIANCE_KEY = "luxel_irradiance_page"    # the same on the pages of irradiance
 # On objects: their slot's offset, and 1 for "baked" (2: with its back faces' texels too).
 OBJECT_OFFSET = "luxel_object"
 INSTANCER_OFFSET = "luxel_instancer"  # on instancers and objects: block offset, page + 1
@@ -31,8 +33,14 @@ MODIFIER = "Luxel Lightmap"     # the modifier of Luxel's that adds the lightmap
 STALE_UV = -1000.0               # where a stale snapshot puts the UVs: off every page
 
 
-def image_name(scene, page):
-    return f"Luxel {scene.name} {page}"
+def image_name(scene, page, *, irradiance=False):
+    return f"Luxel {scene.name} {page}" + (" Irradiance" if irradiance else "")
+
+
+def irradiance_images(scene):
+    """{page number: image} of the bake's irradiance pages."""
+    return {image[IRRADIANCE_KEY]: image for image in bpy.data.images
+            if IRRADIANCE_KEY in image and image.name.startswith(image_name(scene, ""))}
 
 
 def lightmap_directory(scene):
@@ -50,22 +58,24 @@ def lightmap_directory(scene):
     return directory
 
 
-def write_back(scene, export, atlas, pages):
-    """Store ``pages`` ((H, W, 4) arrays, row 0 at v = 0) and the atlas UVs in the .blend."""
+def write_back(scene, export, atlas, pages, irradiance):
+    """Store ``pages`` and ``irradiance`` ((H, W, 4) arrays, row 0 at v = 0: Solver.result()
+    and result(reflected=False)) and the atlas UVs in the .blend; returns the pages' images."""
     settings = scene.luxel
     directory = lightmap_directory(scene) if settings.output == 'FILES' else None
     for receiver in export.receivers:
         if bpy.data.objects.get(receiver.object_name) is None:
             raise SettingsError(f"object '{receiver.object_name}' vanished during the bake; "
                                 "bake again")
-    previous = {image.name for image in bpy.data.images if PAGE_KEY in image
-                and image.name.startswith(image_name(scene, ""))}
+    previous = {image.name for image in _page_images(scene)}
     undo = []           # what to do, last first, to take back each change made so far
     try:
         if directory is not None:
             _make_directory(directory, undo)
         images = [_page_image(scene, index, page, directory, undo)
                   for index, page in enumerate(pages)]
+        arriving = [_page_image(scene, index, page, directory, undo, irradiance=True)
+                    for index, page in enumerate(irradiance)]
         baked = _write_receivers(export, atlas, images, undo)
     except BaseException:
         for action in reversed(undo):
@@ -73,13 +83,13 @@ def write_back(scene, export, atlas, pages):
         raise
 
     # Everything is written: the new results take the old ones' place.
-    for image in images:
+    for image in images + arriving:
         _replace_page(scene, image, directory)
     for obj in scene.objects:
         if obj.name not in baked and (obj.luxel.uv_map or OBJECT_OFFSET in obj
                                       or INSTANCER_OFFSET in obj):
             clear_object(obj)
-    for name in previous - {image.name for image in images}:
+    for name in previous - {image.name for image in images + arriving}:
         bpy.data.images.remove(bpy.data.images[name])
     return images
 
@@ -213,8 +223,7 @@ def remove_lightmaps(scene):
     scene.luxel.show_baked = False
     for obj in scene.objects:
         clear_object(obj)
-    for image in [image for image in bpy.data.images if PAGE_KEY in image
-                  and image.name.startswith(image_name(scene, ""))]:
+    for image in _page_images(scene):
         bpy.data.images.remove(image)
     for obj in [obj for obj in bpy.data.objects if obj.name.startswith(SNAPSHOT_PREFIX)
                 and obj.users == 0]:
@@ -247,10 +256,16 @@ def snapshot_of(obj):
     return _input(modifier, "Snapshot")
 
 
-def _page_image(scene, index, page, directory, undo):
+def _page_images(scene):
+    """Luxel's images of ``scene``: its lightmaps and irradiance pages."""
+    return [image for image in bpy.data.images if (PAGE_KEY in image or IRRADIANCE_KEY in image)
+            and image.name.startswith(image_name(scene, ""))]
+
+
+def _page_image(scene, index, page, directory, undo, *, irradiance=False):
     """A new image for ``page``, beside any old one of its name (Blender suffixes it), packed
     or read from a staged EXR file; _replace_page() swaps it in."""
-    name = image_name(scene, index)
+    name = image_name(scene, index, irradiance=irradiance)
     height, width = page.shape[:2]
     pixels = np.ascontiguousarray(page, dtype=np.float32).copy()
     # Opaque everywhere: Blender premultiplies packed float images by alpha, which would wipe
@@ -274,15 +289,16 @@ def _page_image(scene, index, page, directory, undo):
         image.pack()
     undo.append(lambda: bpy.data.images.remove(image))
     image.colorspace_settings.name = 'Linear Rec.709'
-    image[PAGE_KEY] = index
+    image[IRRADIANCE_KEY if irradiance else PAGE_KEY] = index
     return image
 
 
 def _replace_page(scene, image, directory):
     """The new page image takes the old one's users and name, and its file the final name."""
-    name = image_name(scene, image[PAGE_KEY])
+    key = PAGE_KEY if PAGE_KEY in image else IRRADIANCE_KEY
+    name = image_name(scene, image[key], irradiance=key == IRRADIANCE_KEY)
     old = bpy.data.images.get(name)
-    if old is not None and old != image and PAGE_KEY in old:
+    if old is not None and old != image and key in old:
         old.user_remap(image)
         bpy.data.images.remove(old)
     image.name = name

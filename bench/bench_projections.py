@@ -107,7 +107,8 @@ class CyclesReference:
                 raise SystemExit("--cycles compares one atlas page; lower the size")
             context = self.bpy.context
             # The atlas UVs go onto the objects as a bake would put them there.
-            self.addon.writeback.write_back(context.scene, self.export, atlas, placeholders)
+            self.addon.writeback.write_back(context.scene, self.export, atlas, placeholders,
+                                            placeholders)
             start = time.perf_counter()
             per_object = self.addon.reference.cycles_reference(context, self.samples,
                                                                self.bounces)

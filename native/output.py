@@ -57,18 +57,24 @@ def tone_map(image, exposure=1.0):
 
 
 def write_png(path, rgb8):
-    """Minimal PNG writer for an (H, W, 3) uint8 image, top row first."""
-    height, width, _ = rgb8.shape
-    raw = b"".join(b"\x00" + row.tobytes() for row in np.ascontiguousarray(rgb8))
+    """Minimal PNG writer for an (H, W, 3) or (H, W, 4) uint8 image, top row first."""
+    png = png_bytes(rgb8)
+
+    def write(name):
+        Path(name).write_bytes(png)
+    _atomic_write(path, write)
+
+
+def png_bytes(image8):
+    """An (H, W, 3) RGB or (H, W, 4) RGBA uint8 image, top row first, as a PNG file's bytes."""
+    height, width, channels = image8.shape
+    raw = b"".join(b"\x00" + row.tobytes() for row in np.ascontiguousarray(image8))
 
     def chunk(kind, data):
         return (struct.pack(">I", len(data)) + kind + data
                 + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
 
-    png = (b"\x89PNG\r\n\x1a\n"
-           + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
-           + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
-
-    def write(name):
-        Path(name).write_bytes(png)
-    _atomic_write(path, write)
+    colour_type = {3: 2, 4: 6}[channels]
+    return (b"\x89PNG\r\n\x1a\n"
+            + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, colour_type, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))

@@ -61,8 +61,9 @@ class ReflectedStart:
     unshot_fraction: float
 
 
-def lightmaps(state, ambient):
-    """Per page: rho * (E / pi + ambient) on receiving texels, alpha 1, and the gutter
+def lightmaps(state, ambient, *, reflected=True):
+    """Per page: rho * (E / pi + ambient), the reflected radiance, or with ``reflected``
+    False the irradiance E + pi * ambient, on receiving texels, alpha 1, and the gutter
     filled, on the CPU from the maps it reads anyway (no output maps on the GPU).
     ``ambient(irradiance)`` gives the Ambient from the pages' irradiance maps, or None to
     leave it out."""
@@ -75,7 +76,7 @@ def lightmaps(state, ambient):
         image *= np.float32(1.0 / math.pi)
         if term is not None:
             image[..., :3] += term.reached[index][..., None] * term.radiance.astype(np.float32)
-        image[..., :3] *= page.albedo
+        image[..., :3] *= page.albedo if reflected else np.float32(math.pi)
         image *= occupied[..., None]
         image[..., 3] = occupied
         image = in_atlas_layout(state, page, image)

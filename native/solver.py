@@ -203,13 +203,16 @@ class Solver:
                         self.converged, self.finished, self.texel_count, self.shot_limit,
                         diverged=self.diverged)
 
-    def result(self):
+    def result(self, *, reflected=True):
         """Current lightmaps, one float32 (height, width, 4) array per atlas page, row 0 at
-        v = 0 as in Blender images. RGB is reflected radiance, alpha 1 on occupied texels;
-        the gutter around charts is filled with the neighbouring values (alpha 0)."""
+        v = 0 as in Blender images. RGB is reflected radiance, or with ``reflected`` False
+        the irradiance that albedo / pi turns into it (three.js's lightMap, glTF's
+        MOZ_lightmap); alpha 1 on occupied texels; the gutter around charts is filled with
+        the neighbouring values (alpha 0)."""
         ambient = self._ambient if self.settings.ambient else None
         with using(self.ctx):
-            return self._timed("postprocess", postprocess.lightmaps, self._state, ambient)
+            return self._timed("postprocess", postprocess.lightmaps, self._state, ambient,
+                               reflected=reflected)
 
     def texel_samples(self):
         """Where each texel samples the surface, per page: a dict of (height, width, ...)
