@@ -9,7 +9,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 
-.PHONY: bake test test-matrix compare bench bench-equal-error bench-projections extension extension-check samples clean
+.PHONY: bake test test-matrix compare bench bench-equal-error bench-projections extension extension-check samples clean \
+	viewer chromium
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -40,11 +41,24 @@ bake: $(VENV)/.blender
 # pytest imports it as the parent of tests/.
 BLENDER_TESTS := $(shell grep -l blender_session tests/test_*.py)
 
-test: $(VENV)/.dev
+test: $(VENV)/.dev viewer chromium
 	$(BIN)/python -m pytest -q tests $(addprefix --ignore=,$(BLENDER_TESTS))
 	$(BIN)/python -m pytest -q $(BLENDER_TESTS)
 	$(MAKE) --no-print-directory test-matrix MATRIX="4.2 4.5 5.2 5.3"
 	$(MAKE) --no-print-directory test-farm
+
+# The browser viewer's three.js (viewer/package-lock.json), which native/viewer.py copies.
+viewer: viewer/node_modules/.installed
+
+viewer/node_modules/.installed: viewer/package-lock.json
+	cd viewer && npm ci --no-audit --no-fund
+	touch $@
+
+# Headless Chromium for the viewer's tests (tests/browser.py), from the system's packages.
+SUDO = $(if $(filter 0,$(shell id -u)),,sudo)
+chromium:
+	@test -x /usr/bin/chromium || { $(SUDO) apt-get update -qq && \
+		$(SUDO) apt-get install -y --no-install-recommends chromium; }
 
 # The Flamenco job type's tests (farm/): Node's own test runner, no packages.
 .PHONY: test-farm
@@ -92,7 +106,7 @@ bench-projections: $(VENV)/.bench
 	$(BIN)/python bench/plot.py
 
 # The installable extension: dist/luxel-<version>.zip with the dependency wheels.
-extension: | $(BIN)/python
+extension: viewer | $(BIN)/python
 	$(BIN)/python tools/build_extension.py
 
 # Installs the zip into a fresh Blender profile and bakes with it.

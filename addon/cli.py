@@ -5,11 +5,13 @@ import argparse
 from dataclasses import replace
 import os
 import sys
+import time
 
 import bpy
 
 from ..native import LuxelError
 from ..native.settings import add_options, given_settings
+from ..native.viewer import serve, write_viewer
 from .bake import BakeJob, divergence_message, shot_limit_message
 from .compare import compare_with_cycles, summary_lines
 from .gltf_export import export_gltf
@@ -223,7 +225,6 @@ def _view(args):
     glb = os.path.abspath(args.glb)
     if not glb.lower().endswith(".glb"):
         raise LuxelError(f"'{args.glb}': name a .glb file for the page to show")
-    from .viewer import serve, write_viewer
     export_gltf(bpy.context, glb)
     folder = os.path.abspath(args.folder or os.path.splitext(glb)[0])
     write_viewer(glb, folder)
@@ -233,11 +234,13 @@ def _view(args):
     server = serve(folder, port=args.port)
     print(f"luxel: serving {server.url} (Ctrl+C stops)", flush=True)
     try:
-        server.wait()
+        while True:
+            time.sleep(1.0)
     except KeyboardInterrupt:
         pass
     finally:
         server.shutdown()
+        server.server_close()
     return 0
 
 

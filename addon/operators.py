@@ -2,12 +2,18 @@
 synchronous from scripts and in background mode. A bake's failures (all LuxelErrors, see
 bake.py) become reports naming the object and the fix, with the GPU freed and the file as it
 was."""
+import os
+import tempfile
+import webbrowser
+
 import bpy
 from bpy.props import StringProperty
 
 from ..native import LuxelError
+from ..native.viewer import GLB_NAME, serve, write_viewer
 from .bake import BakeJob, divergence_message, shot_limit_message
 from .compare import compare_with_cycles, summary_lines
+from .gltf_export import export_gltf, scene_has_lightmaps
 from .writeback import remove_lightmaps
 
 TIMER_SECONDS = 0.05
@@ -183,8 +189,53 @@ class LUXEL_OT_remove_lightmaps(bpy.types.Operator):
         return {'FINISHED'}
 
 
+class LUXEL_OT_view_in_browser(bpy.types.Operator):
+    """Export the baked scene as glTF with its lightmaps and show it in a web page served on
+    this computer; the page's folder (luxel_view beside the .blend) can be sent as it is"""
+    bl_idname = "luxel.view_in_browser"
+    bl_label = "View in Browser"
+    bl_options = {'REGISTER'}
+
+    _server = None      # (folder, server) while Blender runs
+
+    @classmethod
+    def poll(cls, context):
+        if not scene_has_lightmaps(context.scene):
+            cls.poll_message_set("Bake first: there are no lightmaps to show")
+            return False
+        return _can_start(cls, context)
+
+    def execute(self, context):
+        folder = (bpy.path.abspath("//luxel_view") if bpy.data.filepath
+                  else os.path.join(tempfile.gettempdir(), "luxel_view"))
+        glb = os.path.join(folder, GLB_NAME)
+        try:
+            export_gltf(context, glb)
+            write_viewer(glb, folder)
+        except LuxelError as error:
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+        served = LUXEL_OT_view_in_browser._server
+        if served is None or served[0] != folder:
+            stop_viewer_server()
+            LUXEL_OT_view_in_browser._server = (folder, serve(folder))
+        url = LUXEL_OT_view_in_browser._server[1].url
+        if not bpy.app.background:
+            webbrowser.open(url)
+        self.report({'INFO'}, f"Luxel: showing {url} (the page is in {folder})")
+        return {'FINISHED'}
+
+
+def stop_viewer_server():
+    if LUXEL_OT_view_in_browser._server is not None:
+        server = LUXEL_OT_view_in_browser._server[1]
+        server.shutdown()
+        server.server_close()
+        LUXEL_OT_view_in_browser._server = None
+
+
 _register, _unregister = bpy.utils.register_classes_factory(
-    (LUXEL_OT_bake, LUXEL_OT_compare, LUXEL_OT_remove_lightmaps))
+    (LUXEL_OT_bake, LUXEL_OT_compare, LUXEL_OT_remove_lightmaps, LUXEL_OT_view_in_browser))
 
 
 def register():
@@ -192,4 +243,5 @@ def register():
 
 
 def unregister():
+    stop_viewer_server()
     _unregister()

@@ -32,6 +32,7 @@ class LUXEL_PT_render(bpy.types.Panel):
         if settings.output == 'FILES':
             column.prop(settings, "directory")
         layout.prop(settings, "show_baked")
+        layout.operator("luxel.view_in_browser", icon='URL')
 
 
 class _RenderSubPanel:

@@ -290,6 +290,8 @@ def _page_image(scene, index, page, directory, undo, *, irradiance=False):
     undo.append(lambda: bpy.data.images.remove(image))
     image.colorspace_settings.name = 'Linear Rec.709'
     image[IRRADIANCE_KEY if irradiance else PAGE_KEY] = index
+    # No material reads the irradiance: a fake user keeps it when the .blend is saved.
+    image.use_fake_user = irradiance
     return image
 
 

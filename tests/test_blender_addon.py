@@ -565,7 +565,8 @@ def test_cli_bake_writes_exr_files_next_to_the_blend(tmp_path):
     assert run_cli(["bake", "--density", "4", "--threshold", "0.05", "--output",
                     str(tmp_path / "maps")]) == 0
     files = sorted(p.name for p in (tmp_path / "maps").iterdir())
-    assert files == ["Luxel_Scene_0.exr"]
+    # The lightmap and the irradiance it reflects (what glTF export writes).
+    assert files == ["Luxel_Scene_0.exr", "Luxel_Scene_0_Irradiance.exr"]
     from native import read_exr
     pixels = read_exr(str(tmp_path / "maps" / files[0]))
     np.testing.assert_allclose(pixels[..., :3],

@@ -699,7 +699,9 @@ def test_save_as_writes_a_new_file_and_leaves_the_open_one_as_it_was(tmp_path, c
     assert run_cli(["bake", "--density", "4", "--threshold", "0.05", "--output",
                     str(copy.parent), "--save-as", str(copy)]) == 0
     assert f"luxel: saved {copy}" in capsys.readouterr().out
-    assert sorted(p.name for p in copy.parent.iterdir()) == ["Luxel_Scene_0.exr", "room.blend"]
+    assert sorted(p.name for p in copy.parent.iterdir()) == ["Luxel_Scene_0.exr",
+                                                              "Luxel_Scene_0_Irradiance.exr",
+                                                              "room.blend"]
     assert original.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a file", "bakes", "room.blend"]
     bpy.ops.wm.open_mainfile(filepath=str(copy))
@@ -738,7 +740,9 @@ def test_a_render_farms_command_line_bakes_and_bad_files_fail_in_one_line(tmp_pa
         "bake", "--density", "4", "--threshold", "0.05", "--output", folder,
         "--save-as", folder / "room.blend")
     assert result.returncode == 0, result.stderr
-    assert sorted(p.name for p in folder.iterdir()) == ["Luxel_Scene_0.exr", "room.blend"]
+    assert sorted(p.name for p in folder.iterdir()) == ["Luxel_Scene_0.exr",
+                                                        "Luxel_Scene_0_Irradiance.exr",
+                                                        "room.blend"]
     # A log a farm keeps: Luxel's lines and Blender's reading and saving the file, nothing
     # that reads as an error (Cycles' temporary bakes printed a line each).
     assert "Baking map saved" not in result.stdout and not result.stderr.strip()
@@ -803,7 +807,8 @@ def test_a_disk_filling_up_while_writing_exr_leaves_no_file_and_no_saved_blend(
     settings = ["--density", "5", "--shots", "30", "--output", str(maps), "--save"]
     if rebake:
         assert run_cli(["bake", *settings]) == 0
-        assert sorted(os.listdir(maps)) == ["Luxel_Scene_0.exr", "Luxel_Scene_1.exr"]
+        assert sorted(os.listdir(maps)) == ["Luxel_Scene_0.exr", "Luxel_Scene_0_Irradiance.exr",
+                                            "Luxel_Scene_1.exr", "Luxel_Scene_1_Irradiance.exr"]
         scene.objects["block"].location.x -= 0.2
     capsys.readouterr()
     saved = blend.read_bytes()

@@ -1,9 +1,11 @@
 """Builds the installable extension zip, dist/luxel-<version>.zip: the add-on, the solver, the
-shaders and the dependency wheels of every supported platform, with the manifest naming them.
+shaders, the browser viewer with its three.js and the dependency wheels of every supported
+platform, with the manifest naming them.
 
     python tools/build_extension.py [--output DIR] [--wheel-cache DIR]
 """
 import argparse
+import json
 from pathlib import Path
 import re
 import subprocess
@@ -99,7 +101,20 @@ def ships(path):
         return path in ("__init__.py", "LICENSE")
     if parts[0] in ("addon", "native"):
         return path.endswith(".py")
+    if parts[0] == "viewer":
+        return len(parts) == 2 and path.endswith((".html", ".js", ".json"))
     return parts[0] == "shaders"
+
+
+def viewer_files():
+    """three.js's files the viewer page imports (viewer/package.json's threeFiles), from
+    viewer/node_modules: npm installs them (make viewer), git does not track them."""
+    viewer = ROOT / "viewer"
+    names = json.loads((viewer / "package.json").read_text())["threeFiles"]
+    paths = [f"viewer/node_modules/three/{name}" for name in names]
+    if missing := [path for path in paths if not (ROOT / path).is_file()]:
+        sys.exit(f"{missing[0]} is missing: run `make viewer` first")
+    return paths
 
 
 def git_files(*options):
@@ -174,7 +189,7 @@ def main():
     args.output.mkdir(parents=True, exist_ok=True)
     target = args.output / f"{manifest['id']}-{manifest['version']}.zip"
     packaged = packaged_manifest(manifest_text, [f"./wheels/{wheel.name}" for wheel in all_wheels])
-    write_zip(target, packaged, source_files(), all_wheels)
+    write_zip(target, packaged, source_files() + viewer_files(), all_wheels)
     count = validate(target)
     print(f"{target}: {target.stat().st_size / 1e6:.1f} MB, {count} files")
 
