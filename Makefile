@@ -2,6 +2,7 @@
 #   make bake   installs Luxel and Blender (the bpy module) into .venv, and bakes
 #               sample_blends/cornell_box.blend through the extension in background mode
 #   make test   installs the same plus pytest into .venv and runs the tests
+#   make view   shows what make bake baked in a web page (glTF, three.js) on 127.0.0.1:8000
 #   make test-matrix  installs the extension zip into Blender 4.2, 4.5, 5.0, 5.2 and 5.3 and bakes
 PYTHON ?= python3.11
 DEVICE ?= llvmpipe
@@ -10,7 +11,7 @@ BIN := $(VENV)/bin
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 
 .PHONY: bake test test-matrix compare bench bench-equal-error bench-projections extension extension-check samples clean \
-	viewer chromium
+	viewer view chromium
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -33,7 +34,13 @@ $(VENV)/.bench: requirements-bench.txt $(VENV)/.blender
 
 bake: $(VENV)/.blender
 	$(BIN)/python tools/blender.py -b sample_blends/cornell_box.blend --command luxel bake \
-		--density 50 --threshold 0.01 --output out/cornell --preview out/cornell/preview.png
+		--density 50 --threshold 0.01 --output out/cornell --preview out/cornell/preview.png \
+		--save-as out/cornell/cornell.blend
+
+# The Cornell box that make bake saved, as a GLB in a web page served on 127.0.0.1:8000.
+view: viewer
+	$(BIN)/python tools/blender.py -b out/cornell/cornell.blend --command luxel view \
+		out/cornell/cornell.glb
 
 # The tests that load Blender run in a process of their own: Mesa's GL, used after Blender in
 # the same process, aborted in a later test (the deadlock seen in full runs was xatlas's, see

@@ -15,6 +15,7 @@ from ..native import LuxelError
 from ..native.gltf import DefaultMaterial, Placement, add_lightmaps, read_gltf, write_gltf
 from ..native.lightmap_encoding import lightmap_png
 from .display import FILL_MATERIAL, set_baked_lighting
+from .evaluation import RenderEvaluation
 from .export import DEFAULT_ALBEDO
 from .writeback import (INSTANCER_OFFSET, OBJECT_OFFSET, UV_MAP, UV_MAP_BACK,
                         irradiance_images)
@@ -57,21 +58,28 @@ class LightmapExtension:
 
 
 _finishing_in_caller = False    # export_gltf() edits the file itself
-_hidden_display = []            # scenes whose Show Baked Lighting is off during an export
+_held = []      # while an export gathers: (scene, its RenderEvaluation, whether it was shown)
 
 
 def pre_export_callback(export_settings):
-    """Show Baked Lighting puts the lightmap in the materials as emission: the exporter must
-    see the user's own materials."""
+    """The exporter must see what the bake saw: the user's own materials (Show Baked Lighting
+    puts the lightmap in them as emission) and the modifiers' render evaluation (the lightmap
+    UVs fit its corners)."""
     scene = bpy.context.scene
-    if scene.luxel.show_baked:
+    shown = scene.luxel.show_baked
+    if shown:
         set_baked_lighting(scene, False)
-        _hidden_display.append(scene)
+    evaluation = RenderEvaluation(scene)
+    evaluation.apply()
+    _held.append((scene, evaluation, shown))
 
 
 def post_export_callback(export_settings):
-    while _hidden_display:
-        set_baked_lighting(_hidden_display.pop(), True)
+    while _held:
+        scene, evaluation, shown = _held.pop()
+        evaluation.restore()
+        if shown:
+            set_baked_lighting(scene, True)
 
 
 def _tag(obj, export_settings):

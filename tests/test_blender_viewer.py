@@ -120,3 +120,22 @@ def test_a_room_with_instances_page_shows_what_blender_shows(tmp_path):
     camera(scene, (2.6, -1.7, 1.6), (-0.5, 0.6, 0.4), lens=20.0)
     assert bpy.ops.luxel.bake() == {'FINISHED'}
     compare(scene, tmp_path, {"Room", "Sofa", "Chair", "ChairTwin", "Stool"})
+
+
+def test_the_sample_interior_opens_in_the_viewer(tmp_path):
+    """sample_blends/interior.blend as users bring it (Solidify, Boolean, Bevel, Subdivision
+    whose viewport level differs from the render's, Array, Mirror, linked duplicates, an
+    excluded collection instanced twice, a curve, text, a textured floor with its own UV
+    map), baked coarsely: every object the baked camera sees is lit on the page (a lightmap
+    that missed its place would be black), and the floor's texture shows through."""
+    bpy.ops.wm.open_mainfile(filepath=str(blender_session.ROOT / "sample_blends" /
+                                          "interior.blend"))
+    assert addon.cli.execute(["bake", "--density", "6", "--threshold", "0.05"]) == 0
+    page, objects = page_view(tmp_path)
+    seen = {name: page[objects == name].mean(axis=1) for name in set(objects.ravel()) - {""}}
+    assert len(seen) >= 8
+    for name, values in seen.items():
+        if len(values) >= 30:
+            assert np.median(values) > 0.0, name
+    floor = next(values for name, values in seen.items() if "floor" in name.lower())
+    assert np.percentile(floor, 90) > 1.5 * np.percentile(floor, 10)

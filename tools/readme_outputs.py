@@ -11,7 +11,7 @@ ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 # The bake `make bake` runs (Makefile), from the repository's root.
 BAKE_ARGUMENTS = ["bake", "--density", "50", "--threshold", "0.01", "--output", "out/cornell",
-                  "--preview", "out/cornell/preview.png"]
+                  "--preview", "out/cornell/preview.png", "--save-as", "out/cornell/cornell.blend"]
 BEGIN, END = "<!-- make bake prints: begin -->", "<!-- make bake prints: end -->"
 # Lines a bake prints every second while it shoots: left out of the quote.
 PROGRESS = re.compile(r"^luxel: [\d,]+ of [\d,]+ shots, ")
@@ -26,11 +26,13 @@ def quoted_lines(output):
 
 
 def comparable(lines):
-    """The lines with their seconds, the preview's path and the set-up's share done left out,
-    a stage once (a slower machine prints a stage's line again as its pieces go by)."""
+    """The lines with their seconds, the preview's and the saved file's paths and the set-up's
+    share done left out, a stage once (a slower machine prints a stage's line again as its
+    pieces go by)."""
     found = []
     for line in lines:
-        line = re.sub(r"^luxel: preview .*", "luxel: preview", SECONDS.sub("<seconds> s", line))
+        line = re.sub(r"^luxel: (preview|saved) .*", r"luxel: \1",
+                      SECONDS.sub("<seconds> s", line))
         line = re.sub(r", set-up \d+ % done$", "", line)
         if line not in found:
             found.append(line)
@@ -50,7 +52,7 @@ def main():
         [sys.executable, str(ROOT / "tools" / "blender.py"), "-b",
          "sample_blends/cornell_box.blend", "--command", "luxel", *BAKE_ARGUMENTS],
         cwd=ROOT, capture_output=True, text=True, check=True)
-    lines = quoted_lines(result.stdout)
+    lines = [line.replace(f"{ROOT}/", "") for line in quoted_lines(result.stdout)]
     text = README.read_text()
     block = (f"{BEGIN}\n```text\n" + "\n".join(lines)
              + f"\n```\n(Mesa llvmpipe, 2 cores, {date.today().isoformat()})\n{END}\n")
