@@ -184,3 +184,23 @@ def test_the_export_leaves_no_tags_and_the_scene_as_it_was(exported_room):
     assert scene.luxel.show_baked      # shown again after the export
     assert all(material.name != "Luxel Lightmap" for material in bpy.data.materials
                if not material.users)
+
+
+def test_blenders_own_export_carries_the_lightmaps_unless_switched_off(exported_room,
+                                                                       tmp_path):
+    """File > Export > glTF 2.0 (the operator, with Apply Modifiers as the panel says): the
+    hooks add the lightmaps; the exporter panel's switch, off, leaves Blender's own file."""
+    import io_scene_gltf2
+    scene, _ = exported_room
+    assert "Luxel Lightmaps" in io_scene_gltf2.exporter_extension_layout_draw
+    for switch in (True, False):
+        scene.luxel.gltf_lightmaps = switch
+        path = tmp_path / f"{switch}.glb"
+        bpy.ops.export_scene.gltf(filepath=str(path), export_format='GLB', export_apply=True)
+        document = gltf.read_gltf(path).document
+        text = json.dumps(document)
+        assert ("MOZ_lightmap" in text) == switch and "luxel_lightmap" not in text
+        if switch:
+            assert all("TEXCOORD_1" in primitive["attributes"]
+                       for mesh in document["meshes"] for primitive in mesh["primitives"])
+    scene.luxel.gltf_lightmaps = True
