@@ -136,6 +136,29 @@ def bake_cornell_box(bpy, meshes):
              + ", ".join(failures))
 
 
+def export_and_view(bpy):
+    """The bake as glTF through this Blender's exporter (its hooks differ between versions):
+    every mesh node's primitives carry TEXCOORD_1 and a MOZ_lightmap material; and the viewer
+    page, whose three.js the zip ships, is written beside it."""
+    import json
+    import tempfile
+    cli = importlib.import_module(f"{PACKAGE}.addon.cli")
+    gltf = importlib.import_module(f"{PACKAGE}.native.gltf")
+    viewer = importlib.import_module(f"{PACKAGE}.native.viewer")
+    folder = Path(tempfile.mkdtemp(prefix="luxel-gltf-"))
+    if cli.execute(["export", "--gltf", str(folder / "box.glb")]) != 0:
+        fail("--command luxel export --gltf failed")
+    document = gltf.read_gltf(folder / "box.glb").document
+    primitives = [primitive for node in document["nodes"] if "mesh" in node
+                  for primitive in document["meshes"][node["mesh"]]["primitives"]]
+    lit = [p for p in primitives if "TEXCOORD_1" in p["attributes"] and "MOZ_lightmap" in
+           document["materials"][p["material"]].get("extensions", {})]
+    if not primitives or len(lit) != len(primitives) or "luxel_lightmap" in json.dumps(document):
+        fail(f"the glTF export gave {len(lit)} of {len(primitives)} primitives their lightmap")
+    page = viewer.write_viewer(folder / "box.glb", folder / "page")
+    print(f"glTF: {len(lit)} primitives with MOZ_lightmap; the page {page.name} written")
+
+
 def bake(bpy, room):
     import numpy as np
     settings = bpy.context.scene.luxel
@@ -194,6 +217,7 @@ def check_in_blender(zip_path, cornell_box):
     context.release()
     if cornell_box:
         bake_cornell_box(bpy, scene)
+        export_and_view(bpy)
     else:
         bake(bpy, scene)
     if bpy.app.version < (4, 5, 0):
