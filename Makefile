@@ -11,7 +11,7 @@ BIN := $(VENV)/bin
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 
 .PHONY: bake test test-matrix compare bench bench-equal-error bench-projections extension extension-check samples clean \
-	viewer view chromium
+	viewer view chromium babylon
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -48,7 +48,7 @@ view: viewer
 # pytest imports it as the parent of tests/.
 BLENDER_TESTS := $(shell grep -l blender_session tests/test_*.py)
 
-test: $(VENV)/.dev viewer chromium
+test: $(VENV)/.dev viewer chromium babylon
 	$(BIN)/python -m pytest -q tests $(addprefix --ignore=,$(BLENDER_TESTS))
 	$(BIN)/python -m pytest -q $(BLENDER_TESTS)
 	$(MAKE) --no-print-directory test-matrix MATRIX="4.2 4.5 5.2 5.3"
@@ -59,6 +59,14 @@ viewer: viewer/node_modules/.installed
 
 viewer/node_modules/.installed: viewer/package-lock.json
 	cd viewer && npm ci --no-audit --no-fund
+	touch $@
+
+# Babylon.js for tests/test_babylon.py (tests/web/package-lock.json): the MOZ_lightmap extension
+# for Babylon's glTF loader (viewer/babylon_moz_lightmap.js) rendered by Babylon itself.
+babylon: tests/web/node_modules/.installed
+
+tests/web/node_modules/.installed: tests/web/package-lock.json
+	cd tests/web && npm ci --no-audit --no-fund
 	touch $@
 
 # Headless Chromium for the viewer's tests (tests/browser.py), from the system's packages.

@@ -14,9 +14,10 @@ from .errors import LuxelError
 
 VIEWER = Path(__file__).resolve().parent.parent / "viewer"
 THREE = VIEWER / "node_modules" / "three"
-PAGE_FILES = ("index.html", "viewer.js", "moz_lightmap.js")
-# What the page's import map reaches, listed in package.json (the extension's build ships them).
-THREE_FILES = tuple(json.loads((VIEWER / "package.json").read_text())["threeFiles"])
+# The page and what its import map reaches, listed in package.json (the extension ships them).
+_FILES = json.loads((VIEWER / "package.json").read_text())
+PAGE_FILES = tuple(_FILES["pageFiles"])
+THREE_FILES = tuple(_FILES["threeFiles"])
 THREE_FOLDER = "three"
 GLB_NAME = "scene.glb"
 

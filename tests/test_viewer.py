@@ -221,8 +221,9 @@ def served_viewer(tmp_path_factory):
     return folder / "site"
 
 
-def test_viewer_shows_irradiance_times_albedo_over_pi(served_viewer):
-    measured = render_viewer(served_viewer, WIDTH, HEIGHT)
+def assert_shows_lightmap(measured):
+    """A browser.Measurement of scene_glb's camera view against expected_view: each pixel on
+    the node it shows, each primitive's radiance on the whole and pixel by pixel."""
     quad_ids, primitive_ids, radiance, clear = expected_view()
     assert measured.rgb.shape == (HEIGHT, WIDTH, 3)
     assert sorted(measured.names) == sorted(QUADS)
@@ -245,6 +246,10 @@ def test_viewer_shows_irradiance_times_albedo_over_pi(served_viewer):
         assert np.all(mean_error < 0.02), (name, primitive["light"].__name__, mean_error)
         within = np.all(np.abs(measured_pixels / truth - 1.0) < 0.05, axis=-1)
         assert within.mean() >= 0.9, (name, primitive["light"].__name__, within.mean())
+
+
+def test_viewer_shows_irradiance_times_albedo_over_pi(served_viewer):
+    assert_shows_lightmap(render_viewer(served_viewer, WIDTH, HEIGHT))
 
 
 def test_written_viewer_is_self_contained(served_viewer):

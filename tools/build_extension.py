@@ -102,19 +102,26 @@ def ships(path):
     if parts[0] in ("addon", "native"):
         return path.endswith(".py")
     if parts[0] == "viewer":
-        return len(parts) == 2 and path.endswith((".html", ".js", ".json"))
+        return path == "viewer/package.json" or path in viewer_files()
     return parts[0] == "shaders"
 
 
 def viewer_files():
-    """three.js's files the viewer page imports (viewer/package.json's threeFiles), from
-    viewer/node_modules: npm installs them (make viewer), git does not track them."""
-    viewer = ROOT / "viewer"
-    names = json.loads((viewer / "package.json").read_text())["threeFiles"]
-    paths = [f"viewer/node_modules/three/{name}" for name in names]
+    """The viewer page's files (viewer/package.json's pageFiles)."""
+    return [f"viewer/{name}" for name in _viewer_listing()["pageFiles"]]
+
+
+def three_files():
+    """three.js's files the viewer page imports (threeFiles), from viewer/node_modules: npm
+    installs them (make viewer), git does not track them."""
+    paths = [f"viewer/node_modules/three/{name}" for name in _viewer_listing()["threeFiles"]]
     if missing := [path for path in paths if not (ROOT / path).is_file()]:
         sys.exit(f"{missing[0]} is missing: run `make viewer` first")
     return paths
+
+
+def _viewer_listing():
+    return json.loads((ROOT / "viewer" / "package.json").read_text())
 
 
 def git_files(*options):
@@ -189,7 +196,7 @@ def main():
     args.output.mkdir(parents=True, exist_ok=True)
     target = args.output / f"{manifest['id']}-{manifest['version']}.zip"
     packaged = packaged_manifest(manifest_text, [f"./wheels/{wheel.name}" for wheel in all_wheels])
-    write_zip(target, packaged, source_files() + viewer_files(), all_wheels)
+    write_zip(target, packaged, source_files() + three_files(), all_wheels)
     count = validate(target)
     print(f"{target}: {target.stat().st_size / 1e6:.1f} MB, {count} files")
 
