@@ -7,6 +7,7 @@ import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 import { MozLightmapPlugin } from "./moz_lightmap.js";
+import { base64, topRowsFirst } from "./measure.js";
 
 const BACKGROUND = 0x333333;
 const params = new URLSearchParams(location.search);
@@ -52,28 +53,11 @@ function carrierNode(mesh, parser) {
     return { index: -1, name: mesh.name };
 }
 
-function base64(typedArray) {
-    const bytes = new Uint8Array(typedArray.buffer, typedArray.byteOffset, typedArray.byteLength);
-    const chunks = [];
-    for (let start = 0; start < bytes.length; start += 0x8000) {
-        chunks.push(String.fromCharCode.apply(null, bytes.subarray(start, start + 0x8000)));
-    }
-    return btoa(chunks.join(""));
-}
-
-// The first `channels` channels, top row first (readRenderTargetPixels gives the bottom first).
+// The first `channels` channels of the target, top row first.
 function readRows(renderer, target, width, height, channels) {
     const rgba = new Float32Array(width * height * 4);
     renderer.readRenderTargetPixels(target, 0, 0, width, height, rgba);
-    const rows = new Float32Array(width * height * channels);
-    for (let y = 0; y < height; y++) {
-        for (let x = 0; x < width; x++) {
-            const from = ((height - 1 - y) * width + x) * 4;
-            const to = (y * width + x) * channels;
-            for (let c = 0; c < channels; c++) rows[to + c] = rgba[from + c];
-        }
-    }
-    return rows;
+    return topRowsFirst(rgba, width, height, channels);
 }
 
 // Writes id + 1, so that the cleared background reads 0 and comes back as -1.

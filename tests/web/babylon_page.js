@@ -13,33 +13,16 @@ import { LoadAssetContainerAsync } from "@babylonjs/core/Loading/sceneLoader.js"
 import { registerBuiltInLoaders } from "@babylonjs/loaders/dynamic.js";
 import { registerGLTFExtension } from "@babylonjs/loaders/glTF/2.0/glTFLoaderExtensionRegistry.js";
 import { MozLightmap } from "./babylon_moz_lightmap.js";
+import { base64, topRowsFirst } from "./measure.js";
 
 const params = new URLSearchParams(location.search);
 
 registerBuiltInLoaders();
 registerGLTFExtension("MOZ_lightmap", true, (loader) => new MozLightmap(loader));
 
-function base64(typedArray) {
-    const bytes = new Uint8Array(typedArray.buffer, typedArray.byteOffset, typedArray.byteLength);
-    const chunks = [];
-    for (let start = 0; start < bytes.length; start += 0x8000) {
-        chunks.push(String.fromCharCode.apply(null, bytes.subarray(start, start + 0x8000)));
-    }
-    return btoa(chunks.join(""));
-}
-
-// The first `channels` channels, top row first (readPixels gives the bottom row first).
+// The first `channels` channels of the target, top row first.
 async function readRows(target, width, height, channels) {
-    const rgba = await target.readPixels();
-    const rows = new Float32Array(width * height * channels);
-    for (let y = 0; y < height; y++) {
-        for (let x = 0; x < width; x++) {
-            const from = ((height - 1 - y) * width + x) * 4;
-            const to = (y * width + x) * channels;
-            for (let c = 0; c < channels; c++) rows[to + c] = rgba[from + c];
-        }
-    }
-    return rows;
+    return topRowsFirst(await target.readPixels(), width, height, channels);
 }
 
 // The glTF node a mesh stands for: the mesh itself or, for several primitives, its parent.
