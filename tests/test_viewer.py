@@ -243,9 +243,11 @@ def assert_shows_lightmap(measured):
         measured_pixels, truth = measured.rgb[pixels], radiance[pixels]
         assert len(truth) > 200, name
         mean_error = np.abs(measured_pixels.mean(axis=0) / truth.mean(axis=0) - 1.0)
-        assert np.all(mean_error < 0.02), (name, primitive["light"].__name__, mean_error)
-        within = np.all(np.abs(measured_pixels / truth - 1.0) < 0.05, axis=-1)
-        assert within.mean() >= 0.9, (name, primitive["light"].__name__, within.mean())
+        assert np.all(mean_error < 0.01), (name, primitive["light"].__name__, mean_error)
+        # The plugins decode the four texels around a point before weighting them: filtering
+        # the bytes was 3.7 % off at worst on the gradient, across divisor changes.
+        within = np.all(np.abs(measured_pixels / truth - 1.0) < 0.015, axis=-1)
+        assert within.mean() >= 0.99, (name, primitive["light"].__name__, within.mean())
 
 
 def test_viewer_shows_irradiance_times_albedo_over_pi(served_viewer):
