@@ -193,7 +193,10 @@ def export_gltf(context, path, *, selected_only=False):
     global _finishing_in_caller
     scene = context.scene
     if not scene_has_lightmaps(scene):
-        raise LuxelError("the scene has no Luxel lightmaps to export: bake first "
+        baked = any(OBJECT_OFFSET in obj for obj in scene.objects)
+        raise LuxelError("the scene's lightmaps were baked before Luxel kept the irradiance "
+                         "that glTF files hold: bake again" if baked else
+                         "the scene has no Luxel lightmaps to export: bake first "
                          "(--command luxel bake)")
     path = os.path.abspath(path)
     if not path.lower().endswith((".glb", ".gltf")):
