@@ -204,3 +204,21 @@ def test_blenders_own_export_carries_the_lightmaps_unless_switched_off(exported_
             assert all("TEXCOORD_1" in primitive["attributes"]
                        for mesh in document["meshes"] for primitive in mesh["primitives"])
     scene.luxel.gltf_lightmaps = True
+
+
+def test_an_export_without_lightmaps_says_what_to_do(tmp_path, capsys):
+    """No bake: "bake first"; a bake from before the irradiance was kept: "bake again"; no
+    file is written either way."""
+    import blender_scenes
+    blender_session.empty_file()
+    path = tmp_path / "scene.glb"
+    assert addon.cli.execute(["export", "--gltf", str(path)]) == 1
+    assert "bake first" in capsys.readouterr().err and not path.exists()
+    scene = blender_scenes.point_scene()
+    scene.luxel.texel_density, scene.luxel.threshold = 4.0, 0.05
+    assert bpy.ops.luxel.bake() == {'FINISHED'}
+    for image in writeback.irradiance_images(scene).values():
+        bpy.data.images.remove(image)
+    capsys.readouterr()
+    assert addon.cli.execute(["export", "--gltf", str(path)]) == 1
+    assert "bake again" in capsys.readouterr().err and not path.exists()
