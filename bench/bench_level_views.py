@@ -6,6 +6,7 @@ showing Luxel's lightmaps (Show Baked Lighting), compared as issue 47 asks (the 
 
     python bench/bench_level_views.py --levels DIR --level steelribs --density 0.5 \\
         [--threshold 0.01] [--shots N] [--views 3] [--samples 256] [--resolution 320 180] \\
+        [--back-faces AUTO|ON|OFF] \\
         [--images DIR] [--json bench/results/level-views-steelribs-0.5-llvmpipe.json]
 
 Cameras stand 1.7 m over floor points (upward faces, area-weighted, with 2 m of head room),
@@ -126,6 +127,8 @@ def main():
     parser.add_argument("--views", type=int, default=3)
     parser.add_argument("--samples", type=int, default=256, help="Cycles' path tracing")
     parser.add_argument("--resolution", type=int, nargs=2, default=(320, 180))
+    parser.add_argument("--back-faces", choices=("AUTO", "ON", "OFF"), default="AUTO",
+                        help="the level object's Back Faces (Object properties)")
     parser.add_argument("--images", type=Path, help="write each view's two renders as PNGs")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
@@ -135,6 +138,9 @@ def main():
     views_module = importlib.import_module(runner.MODULE + ".addon.views")
     scene = import_level(bpy, args.levels / f"{args.level}.obj")
     cameras = level_cameras(bpy, scene, args.views, tuple(args.resolution))
+    for obj in scene.objects:
+        if obj.type == 'MESH':
+            obj.luxel.back_faces = args.back_faces
     options = ["bake", "--density", str(args.density), "--threshold", str(args.threshold)]
     if args.shots:
         options += ["--shots", str(args.shots)]
@@ -149,7 +155,7 @@ def main():
     render_seconds = time.perf_counter() - started
     result = {
         "level": args.level, "density": args.density, "threshold": args.threshold,
-        "texels": stats.texels, "shots": stats.shots, "unshot": stats.unshot / 100.0,
+        "back_faces": args.back_faces, "texels": stats.texels, "shots": stats.shots, "unshot": stats.unshot / 100.0,
         "stopped_at_shot_limit": stats.stopped_at_shot_limit, "bake_seconds": bake_seconds,
         "cycles_samples": args.samples, "resolution": list(args.resolution),
         "render_seconds": render_seconds,
