@@ -80,6 +80,10 @@ def _bury_in_solids(scene, atlas, planes, points_of):
     lift = LIFT * np.sqrt(scene.triangle_area[atlas.triangles]
                           / np.maximum(_uv_areas(atlas.texels), 1e-30))
     own = mesh[atlas.triangles]
+    # A back face's copy (Scene.with_back_faces) looks into its own mesh: a closed brush
+    # buries it as it buries any face inside it.
+    copy = (np.zeros(len(own), bool) if scene.back_of is None
+            else scene.back_of[atlas.triangles] >= 0)
     for solid_mesh, solid, solid_low, solid_high in solids:
         # Boxes that overlap, not only touch, along each axis the triangle spans: a crate
         # beside a floor's triangle buries none of it, the one standing on it some.
@@ -87,7 +91,7 @@ def _bury_in_solids(scene, atlas, planes, points_of):
         flat = high - low <= margin
         overlap = ((high > solid_low + margin) & (low < solid_high - margin)
                    | flat & (high >= solid_low) & (low <= solid_high))
-        near = np.nonzero(overlap.all(axis=1) & (own != solid_mesh))[0]
+        near = np.nonzero(overlap.all(axis=1) & ((own != solid_mesh) | copy))[0]
         # Only where the solid reaches from behind the tested points to in front of them.
         heights = solid.reshape(-1, 3) @ normal[near].T - offset[near]
         near = near[(heights.min(axis=0) <= lift[near]) & (heights.max(axis=0) >= lift[near])]
