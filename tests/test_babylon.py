@@ -27,7 +27,7 @@ def measured(tmp_path_factory):
     site = tmp_path_factory.mktemp("babylon")
     for name in (PAGE, "babylon_page.js"):
         shutil.copyfile(WEB / name, site / name)
-    for name in (EXTENSION, "measure.js"):
+    for name in (EXTENSION, "rgbd_lightmap.js", "measure.js"):
         shutil.copyfile(ROOT / "viewer" / name, site / name)
     (site / "node_modules").symlink_to(node_modules, target_is_directory=True)
     (site / "scene.glb").write_bytes(scene_glb())

@@ -7,28 +7,9 @@
 //   import { registerGLTFExtension } from "@babylonjs/loaders/glTF/2.0";
 //   registerGLTFExtension("MOZ_lightmap", true, (loader) => new MozLightmap(loader));
 import { MaterialPluginBase } from "@babylonjs/core/Materials/materialPluginBase.js";
+import { RGBD_LIGHTMAP } from "./rgbd_lightmap.js";
 
 const EXTENSION = "MOZ_lightmap";
-
-// The GPU would filter the encoded bytes, whose decoding is not linear: seams where a texel's
-// divisor differs from its neighbour's. The four texels around the point are decoded first.
-const LIGHTMAP_AT = `
-vec3 decodeLightMapRGBD(vec4 texel) {
-    return pow(texel.rgb, vec3(2.2)) / max(texel.a, 1.0 / 255.0);
-}
-vec3 lightMapAt(sampler2D map, vec2 uv) {
-    ivec2 last = textureSize(map, 0) - 1;
-    vec2 position = uv * vec2(last + 1) - 0.5;
-    vec2 weight = fract(position);
-    ivec2 corner = ivec2(floor(position));
-    vec3 texels[4];
-    for (int i = 0; i < 4; i++) {
-        ivec2 at = clamp(corner + ivec2(i & 1, i >> 1), ivec2(0), last);
-        texels[i] = decodeLightMapRGBD(texelFetch(map, at, 0));
-    }
-    return mix(mix(texels[0], texels[1], weight.x), mix(texels[2], texels[3], weight.x),
-               weight.y);
-}`;
 
 // PBRMaterial adds its lightmap to the final colour as radiance: this makes it irradiance seen
 // through Lambert's BRDF. baseColor, not surfaceAlbedo, which Babylon dims by the dielectric F0
@@ -46,7 +27,7 @@ class LambertLightmap extends MaterialPluginBase {
     getCustomCode(shaderType) {
         if (shaderType !== "fragment") return null;
         return {
-            CUSTOM_FRAGMENT_DEFINITIONS: LIGHTMAP_AT,
+            CUSTOM_FRAGMENT_DEFINITIONS: RGBD_LIGHTMAP,
             // Luxel's RGBD, decoded before filtering (Babylon's fromRGBD is the same decoding,
             // unless the engine has useExactSrgbConversions, but of the filtered bytes).
             "!fromRGBD\\(lightmapColor\\);": "lightMapAt(lightmapSampler,vLightmapUV+uvOffset);",

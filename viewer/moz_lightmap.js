@@ -5,28 +5,9 @@
 // irradiance * baseColor * (1 - metalness) / pi, the diffuse radiance Blender shows. WebGL 2.
 //   loader.register((parser) => new MozLightmapPlugin(parser));
 import { NoColorSpace, ShaderChunk } from "three";
+import { RGBD_LIGHTMAP } from "./rgbd_lightmap.js";
 
 const EXTENSION = "MOZ_lightmap";
-
-// The GPU would filter the encoded bytes, whose decoding is not linear: seams where a texel's
-// divisor differs from its neighbour's. The four texels around the point are decoded first.
-const DECODE_RGBD = `
-vec3 decodeLightMapRGBD(const in vec4 texel) {
-    return pow(texel.rgb, vec3(2.2)) / max(texel.a, 1.0 / 255.0);
-}
-vec3 lightMapAt(const in sampler2D map, const in vec2 uv) {
-    ivec2 last = textureSize(map, 0) - 1;
-    vec2 position = uv * vec2(last + 1) - 0.5;
-    vec2 weight = fract(position);
-    ivec2 corner = ivec2(floor(position));
-    vec3 texels[4];
-    for (int i = 0; i < 4; i++) {
-        ivec2 at = clamp(corner + ivec2(i & 1, i >> 1), ivec2(0), last);
-        texels[i] = decodeLightMapRGBD(texelFetch(map, at, 0));
-    }
-    return mix(mix(texels[0], texels[1], weight.x), mix(texels[2], texels[3], weight.x),
-               weight.y);
-}`;
 
 // three's lightmap lines in its lights_fragment_maps chunk (three 0.187).
 const LIGHTMAP_LINES = `
@@ -59,7 +40,7 @@ function decodeRGBD(shader) {
     const lightsMaps = replaceOnce(ShaderChunk.lights_fragment_maps, LIGHTMAP_LINES,
         DECODED_IRRADIANCE);
     let fragment = replaceOnce(shader.fragmentShader, "#include <lightmap_pars_fragment>",
-        "#include <lightmap_pars_fragment>\n" + DECODE_RGBD);
+        "#include <lightmap_pars_fragment>\n" + RGBD_LIGHTMAP);
     fragment = replaceOnce(fragment, "#include <lights_fragment_maps>", lightsMaps);
     shader.fragmentShader = replaceOnce(fragment, "#include <lights_fragment_end>", LIGHTMAP_TERM);
 }
