@@ -25,7 +25,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 sys.path.insert(0, str(ROOT / "bench"))
 import blender as runner  # noqa: E402  (tools/blender.py)
 from bench_levels import ALBEDO, GAME_UNIT, SKY, SUN_DIRECTION, SUN_STRENGTH  # noqa: E402
-from common import save_results  # noqa: E402
+from common import add_level_arguments, save_results  # noqa: E402
 
 EYE_HEIGHT = 1.7
 HEAD_ROOM = 2.0
@@ -119,11 +119,7 @@ def compare(view):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--levels", type=Path, required=True, help="folder of LEVEL.obj")
-    parser.add_argument("--level", required=True)
-    parser.add_argument("--density", type=float, default=0.5)
-    parser.add_argument("--threshold", type=float, default=0.01)
-    parser.add_argument("--shots", type=int, default=0, help="shot limit; 0: automatic")
+    add_level_arguments(parser, density=0.5)
     parser.add_argument("--views", type=int, default=3)
     parser.add_argument("--samples", type=int, default=256, help="Cycles' path tracing")
     parser.add_argument("--resolution", type=int, nargs=2, default=(320, 180))

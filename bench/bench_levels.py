@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from common import device_name, save_results
+from common import add_level_arguments, device_name, save_results
 from native import Scene, Settings, Solver, SunLight, create_context
 from native.scene import triangle_areas
 
@@ -60,11 +60,7 @@ def level_scene(path):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--levels", type=Path, required=True, help="folder of LEVEL.obj")
-    parser.add_argument("--level", required=True)
-    parser.add_argument("--density", type=float, default=1.0)
-    parser.add_argument("--threshold", type=float, default=0.01)
-    parser.add_argument("--shots", type=int, default=0, help="shot limit; 0: automatic")
+    add_level_arguments(parser, density=1.0)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
 

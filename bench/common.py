@@ -26,6 +26,15 @@ def save_results(path, payload):
     path.write_text(json.dumps(payload, indent=1))
 
 
+def add_level_arguments(parser, density):
+    """The options of the benchmarks that bake a real level: which, where, and how far."""
+    parser.add_argument("--levels", type=Path, required=True, help="folder of LEVEL.obj")
+    parser.add_argument("--level", required=True)
+    parser.add_argument("--density", type=float, default=density)
+    parser.add_argument("--threshold", type=float, default=0.01)
+    parser.add_argument("--shots", type=int, default=0, help="shot limit; 0: automatic")
+
+
 def device_name(ctx):
     """Renderer and OpenGL version. moderngl reads ctx.info once and keeps it, so it has to be
     read with the context current (the solver's memory check uses it too)."""
