@@ -9,7 +9,6 @@ itself and File > Export does on the next tick of the interface."""
 import os
 
 import bpy
-import numpy as np
 
 from ..native import LuxelError
 from ..native.gltf import DefaultMaterial, Placement, add_lightmaps, read_gltf, write_gltf
@@ -18,7 +17,7 @@ from .display import FILL_MATERIAL, set_baked_lighting
 from .evaluation import RenderEvaluation
 from .export import DEFAULT_ALBEDO
 from .writeback import (INSTANCER_OFFSET, OBJECT_OFFSET, UV_MAP, UV_MAP_BACK,
-                        irradiance_images)
+                        image_pixels, irradiance_images)
 
 TAG = "luxel_lightmap"      # in a node's extras while the file is being written
 PANEL = "Luxel Lightmaps"
@@ -139,7 +138,7 @@ def finish_export(path, scene):
                          "modifiers add them; turn on Apply Modifiers in the exporter "
                          "(Data > Mesh), or use --command luxel export")
     pages = irradiance_images(scene)
-    lightmaps = [lightmap_png(_pixels(pages[number])) for number in sorted(pages)]
+    lightmaps = [lightmap_png(image_pixels(pages[number])) for number in sorted(pages)]
     if any(placement.page >= len(lightmaps) for placement in placements):
         raise LuxelError("the lightmaps' images are missing some pages: bake again")
     add_lightmaps(gltf, placements, lightmaps,
@@ -177,13 +176,6 @@ def _placements(nodes, tags):
 def _names(objects):
     shown = ", ".join(f"'{name}'" for name in objects[:5])
     return shown + (f" and {len(objects) - 5} more" if len(objects) > 5 else "")
-
-
-def _pixels(image):
-    width, height = image.size
-    values = np.empty(width * height * 4, dtype=np.float32)
-    image.pixels.foreach_get(values)
-    return values.reshape(height, width, 4)
 
 
 def export_gltf(context, path, *, selected_only=False):

@@ -31,7 +31,7 @@ import numpy as np
 from ..native import SceneError, lightmap_atlas
 from ..native.postprocess import fill_gutter
 from .display import NODE_PREFIX, STATE_KEY, strip_display_nodes
-from .writeback import hold_render_uv
+from .writeback import hold_render_uv, image_pixels
 
 MATERIAL_SAMPLES = 32       # Cycles samples per texel of a material that varies
 # A material that cannot vary over a surface bakes SUPERSAMPLE x SUPERSAMPLE sub-texels a
@@ -361,11 +361,7 @@ def _bake_pages(copies, atlas, bake):
             finally:
                 settings.collection.objects.unlink(copy.obj)
         for copy in chosen:
-            image = images[id(copy)]
-            width, height = image.size
-            pixels = np.empty(width * height * 4, dtype=np.float32)
-            image.pixels.foreach_get(pixels)
-            pixels = texel_means(pixels.reshape(height, width, 4), _supersample(copy))
+            pixels = texel_means(image_pixels(images[id(copy)]), _supersample(copy))
             height, width = pixels.shape[:2]
             baked = pixels[..., 3] > 0.0
             (x, y), page = copy.low, copy.page

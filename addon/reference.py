@@ -15,7 +15,8 @@ from ..native.evaluation.texel_error import texel_noise
 from .display import STATE_KEY, is_fill, strip_display_nodes
 from .export import DEFAULT_ALBEDO
 from .materials import bake_reports_silenced, texel_means
-from .writeback import INSTANCER_OFFSET, OBJECT_OFFSET, UV_MAP, image_name, snapshot_of
+from .writeback import (INSTANCER_OFFSET, OBJECT_OFFSET, UV_MAP, image_name, image_pixels,
+                        snapshot_of)
 
 PASS_FILTER = {'DIRECT', 'INDIRECT', 'COLOR'}
 TEMP_PREFIX = "Luxel Reference "
@@ -234,14 +235,7 @@ class ObjectMean:
 
 def luxel_lightmap(obj):
     """The object's Luxel page as an (H, W, 4) float32 array, row 0 at the bottom."""
-    return _pixels(obj.luxel.image)
-
-
-def _pixels(image):
-    width, height = image.size
-    pixels = np.empty(width * height * 4, dtype=np.float32)
-    image.pixels.foreach_get(pixels)
-    return pixels.reshape(height, width, 4)
+    return image_pixels(obj.luxel.image)
 
 
 def object_means(reference, luxel_pages=None):
@@ -251,7 +245,7 @@ def object_means(reference, luxel_pages=None):
     means = {}
     for name, cycles in reference.items():
         luxel = (luxel_pages[name] if luxel_pages is not None
-                 else _pixels(luxel_page(bpy.context.scene, name)))
+                 else image_pixels(luxel_page(bpy.context.scene, name)))
         if luxel.shape != cycles.shape:
             raise ValueError(f"'{name}': Luxel's lightmap is {luxel.shape[:2]}, the Cycles bake "
                              f"{cycles.shape[:2]}")

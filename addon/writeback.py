@@ -43,6 +43,14 @@ def irradiance_images(scene):
             if IRRADIANCE_KEY in image and image.name.startswith(image_name(scene, ""))}
 
 
+def image_pixels(image):
+    """An image's pixels as an (H, W, 4) float32 array, row 0 at v = 0."""
+    width, height = image.size
+    pixels = np.empty(width * height * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    return pixels.reshape(height, width, 4)
+
+
 def lightmap_directory(scene):
     """Absolute folder for EXR output; an error before anything is written if it can't be."""
     settings = scene.luxel

@@ -12,12 +12,12 @@ import json
 import os
 from pathlib import Path
 import struct
-import tempfile
 
 import numpy as np
 
 from .errors import LuxelError
 from .lightmap_encoding import ENCODING
+from .output import write_bytes
 
 EXTENSION = "MOZ_lightmap"
 LIGHTMAP_SET = 1            # TEXCOORD_1, the lightmap UVs' set
@@ -105,30 +105,18 @@ def write_gltf(gltf):
                                  + base64.b64encode(bytes(gltf.binary)).decode("ascii"))
             else:
                 buffer["uri"] = os.path.relpath(gltf.binary_path, gltf.path.parent)
-                _write_atomically(gltf.binary_path, bytes(gltf.binary))
+                write_bytes(gltf.binary_path, bytes(gltf.binary))
         document["buffers"] = [buffer]
     text = json.dumps(document, separators=(",", ":")).encode()
     if not gltf.is_glb:
-        _write_atomically(gltf.path, text)
+        write_bytes(gltf.path, text)
         return
     text += b" " * (-len(text) % 4)
     binary = bytes(gltf.binary) + b"\0" * (-len(gltf.binary) % 4)
     chunks = struct.pack("<II", len(text), JSON_CHUNK) + text
     if binary:
         chunks += struct.pack("<II", len(binary), BIN_CHUNK) + binary
-    _write_atomically(gltf.path, struct.pack("<III", GLB_MAGIC, 2, 12 + len(chunks)) + chunks)
-
-
-def _write_atomically(path, data):
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}-", dir=path.parent)
-    try:
-        with os.fdopen(handle, "wb") as file:
-            file.write(data)
-        os.replace(temporary, path)
-    except BaseException:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-        raise
+    write_bytes(gltf.path, struct.pack("<III", GLB_MAGIC, 2, 12 + len(chunks)) + chunks)
 
 
 def add_lightmaps(gltf, placements, lightmaps, default_material):

@@ -56,13 +56,14 @@ def tone_map(image, exposure=1.0):
     return np.clip(np.round(srgb * 255.0), 0, 255).astype(np.uint8)
 
 
+def write_bytes(path, data):
+    """``data`` into the file at ``path``, whole or not at all."""
+    _atomic_write(path, lambda name: Path(name).write_bytes(data))
+
+
 def write_png(path, rgb8):
     """Minimal PNG writer for an (H, W, 3) or (H, W, 4) uint8 image, top row first."""
-    png = png_bytes(rgb8)
-
-    def write(name):
-        Path(name).write_bytes(png)
-    _atomic_write(path, write)
+    write_bytes(path, png_bytes(rgb8))
 
 
 def png_bytes(image8):

@@ -6,12 +6,13 @@ the glTF base colour over pi (three.js's lightMap), gives back the lightmap Blen
 within 2 % on texels above 1 % of the page's maximum."""
 import importlib
 import json
+import os
 
 import numpy as np
 import pytest
 
 import blender_session
-from test_blender_every_object import evaluated_lightmap, modelled_room
+from test_blender_every_object import evaluated_lightmap, modelled_room, page_pixels
 
 bpy = blender_session.blender()
 addon = blender_session.addon().addon
@@ -37,26 +38,23 @@ def accessor(document, binary, index):
     return np.ascontiguousarray(rows).view(dtype).reshape(acc["count"], width)
 
 
-def decoded_page(document, binary, texture, intensity):
+def decoded_page(document, binary, texture, intensity, folder):
     """The page a texture names, decoded from its PNG (Blender reads the PNG; row 0 at the
     top, where glTF's v is 0)."""
     image = document["images"][document["textures"][texture]["source"]]
     view = document["bufferViews"][image["bufferView"]]
     data = bytes(binary[view.get("byteOffset", 0):view.get("byteOffset", 0)
                         + view["byteLength"]])
-    path = blender_session.ROOT / "out" / "gltf-page.png"
-    path.parent.mkdir(exist_ok=True)
+    path = folder / f"page-{texture}.png"
     path.write_bytes(data)
     loaded = bpy.data.images.load(str(path))
     try:
         loaded.colorspace_settings.name = 'Non-Color'
-        width, height = loaded.size
-        pixels = np.empty(width * height * 4, dtype=np.float32)
-        loaded.pixels.foreach_get(pixels)
+        pixels = writeback.image_pixels(loaded)
     finally:
         bpy.data.images.remove(loaded)
     # Blender's rows run up from v = 0: flip to the PNG's (glTF's) order, back to bytes.
-    rgbd = np.round(np.flipud(pixels.reshape(height, width, 4)) * 255.0).astype(np.uint8)
+    rgbd = np.round(np.flipud(pixels) * 255.0).astype(np.uint8)
     return encoding.decode_rgbd(rgbd, intensity)
 
 
@@ -69,14 +67,6 @@ def bilinear(image, u, v):
     fx, fy = (x - x0)[:, None], (y - y0)[:, None]
     return ((image[y0, x0] * (1 - fx) + image[y0, x0 + 1] * fx) * (1 - fy)
             + (image[y0 + 1, x0] * (1 - fx) + image[y0 + 1, x0 + 1] * fx) * fy)
-
-
-def page_pixels(scene, page):
-    image = bpy.data.images[writeback.image_name(scene, page)]
-    width, height = image.size
-    pixels = np.empty(width * height * 4, dtype=np.float32)
-    image.pixels.foreach_get(pixels)
-    return pixels.reshape(height, width, 4)[..., :3]
 
 
 @pytest.fixture(scope="module")
@@ -141,7 +131,8 @@ def test_each_shown_copy_carries_its_own_lightmap_place(exported_room):
     assert len({tuple(np.round(uv.mean(axis=0), 5)) for uv in stools}) == 3
 
 
-def test_the_decoded_lightmap_times_base_colour_is_what_blender_shows(exported_room):
+def test_the_decoded_lightmap_times_base_colour_is_what_blender_shows(exported_room,
+                                                                       tmp_path):
     """At four random points of every triangle of every shown copy. Luxel's lightmap is its
     per-texel albedo (Cycles' bake of the material) times the irradiance, the glTF's the
     irradiance times the base colour: on texels that a surface covers in part Cycles' bake of
@@ -158,10 +149,11 @@ def test_the_decoded_lightmap_times_base_colour_is_what_blender_shows(exported_r
             material = document["materials"][primitive["material"]]
             lightmap = material["extensions"]["MOZ_lightmap"]
             base = np.array(material["pbrMetallicRoughness"]["baseColorFactor"][:3])
-            irradiance = decoded_page(document, binary, lightmap["index"], lightmap["intensity"])
+            irradiance = decoded_page(document, binary, lightmap["index"], lightmap["intensity"],
+                                      tmp_path)
             image = document["textures"][lightmap["index"]]["source"]
             page = int(document["images"][image]["name"].rsplit(" ", 1)[1])
-            shown = page_pixels(scene, page)
+            shown = page_pixels(scene, page)[..., :3]
             uv = accessor(document, binary, primitive["attributes"]["TEXCOORD_1"])
             triangles = np.repeat(accessor(document, binary, primitive["indices"])
                                   .reshape(-1, 3), 4, axis=0)
@@ -181,6 +173,10 @@ def test_the_decoded_lightmap_times_base_colour_is_what_blender_shows(exported_r
 def test_the_export_leaves_no_tags_and_the_scene_as_it_was(exported_room):
     scene, file = exported_room
     assert "luxel_lightmap" not in json.dumps(file.document)
+    # Rewritten as a plain open() would have written it (not private to its writer).
+    umask = os.umask(0)
+    os.umask(umask)
+    assert file.path.stat().st_mode & 0o777 == 0o666 & ~umask
     assert scene.luxel.show_baked      # shown again after the export
     assert all(material.name != "Luxel Lightmap" for material in bpy.data.materials
                if not material.users)

@@ -3,16 +3,18 @@ many material groups, a brush without a material, no UV map, a zero-area triangl
 20 km from the origin), and the same level through a glTF round trip. Lit by a sun and a
 uniform sky, every open floor face is the truth rho * (S cos(theta) + pi * L_sky) / pi within
 3 % (nothing above it but the sky), and the bake's warnings name what it repaired."""
+import importlib
 import math
 
 import numpy as np
-import pytest
 
 import blender_scenes
 import blender_session
+from test_blender_gltf import bilinear
 
 bpy = blender_session.blender()
 addon = blender_session.addon().addon
+writeback = importlib.import_module(blender_session.MODULE + ".addon.writeback")
 
 OFFSET = (20000.0, 3.0, -20000.0)   # OBJ axes (y up): 20 km east and north
 SUN_STRENGTH, SUN_ELEVATION = 3.0, math.radians(50.0)
@@ -96,22 +98,12 @@ def open_tiles(obj):
 def lightmap_at_centres(obj, faces):
     """The lightmap at each face's centre (the mean of its corners' lightmap UVs: the tiles are
     squares, charted affinely), bilinear as a material reads it."""
-    image = obj.luxel.image
-    width, height = image.size
-    pixels = np.empty(width * height * 4, dtype=np.float32)
-    image.pixels.foreach_get(pixels)
-    pixels = pixels.reshape(height, width, 4)[..., :3]
+    pixels = writeback.image_pixels(obj.luxel.image)[..., :3]
     layer = obj.data.uv_layers[obj.luxel.uv_map]
-    values = {}
-    for index in faces:
-        polygon = obj.data.polygons[index]
-        uv = np.mean([layer.data[loop].uv[:] for loop in polygon.loop_indices], axis=0)
-        x, y = uv[0] * width - 0.5, uv[1] * height - 0.5
-        x0, y0 = int(x), int(y)
-        fx, fy = x - x0, y - y0
-        values[index] = ((pixels[y0, x0] * (1 - fx) + pixels[y0, x0 + 1] * fx) * (1 - fy)
-                         + (pixels[y0 + 1, x0] * (1 - fx) + pixels[y0 + 1, x0 + 1] * fx) * fy)
-    return values
+    centres = np.array([np.mean([layer.data[loop].uv[:] for loop in
+                                 obj.data.polygons[index].loop_indices], axis=0)
+                        for index in faces])
+    return dict(zip(faces, bilinear(pixels, centres[:, 0], centres[:, 1])))
 
 
 def bake_and_check(scene, capsys):
@@ -145,8 +137,7 @@ def test_an_obj_level_bakes_to_its_truth_and_names_what_was_repaired(tmp_path, c
     bake_and_check(scene, capsys)
 
 
-@pytest.mark.parametrize("binary", [True])
-def test_the_level_through_gltf_bakes_the_same(tmp_path, capsys, binary):
+def test_the_level_through_gltf_bakes_the_same(tmp_path, capsys):
     scene = blender_session.empty_file()
     bpy.ops.wm.obj_import(filepath=str(write_level(tmp_path)))
     path = tmp_path / "level.glb"
