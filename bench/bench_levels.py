@@ -10,6 +10,7 @@ everywhere, as a level imported without its textures bakes.
 No Cycles comparison yet: that needs the levels imported through Blender (docs/
 benchmarks-log.md, "Real levels")."""
 import argparse
+import dataclasses
 from pathlib import Path
 import time
 
@@ -61,10 +62,14 @@ def level_scene(path):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_level_arguments(parser, density=1.0)
+    parser.add_argument("--back-faces", action="store_true",
+                        help="every face's back receives on texels of its own")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
 
     scene, dropped = level_scene(args.levels / f"{args.level}.obj")
+    if args.back_faces:
+        scene = dataclasses.replace(scene, receive_back=np.ones(len(scene.triangles), bool))
     ctx = create_context()
     started = time.perf_counter()
     solver = Solver(scene, Settings(texel_density=args.density, threshold=args.threshold,
@@ -82,6 +87,7 @@ def main():
     ledger = solver.ledger()
     result = {
         "level": args.level, "density": args.density, "threshold": args.threshold,
+        "back_faces": args.back_faces,
         "device": device_name(ctx), "triangles": len(scene.triangles),
         "zero_area_dropped": dropped, "texels": solver.texel_count,
         "set_up_seconds": set_up, "seconds": progress.seconds, "shots": progress.shots,

@@ -151,6 +151,8 @@ def create_programs(gl, settings, *, per_face, receiver_batch, glossy_lobes):
                             defines={"MOST_SHOOTERS": receiver_batch,
                                      "SHOOTER_CELLS": SHOOTER_CELLS, **lobes}),
         "light": gl.program("receiver_boxes.vert", "receive_light.frag", defines=lobes),
+        "gathered_power": gl.program("gathered_power.vert", "gathered_power.frag"),
+        "deliver": gl.program("receiver_boxes.vert", "deliver.frag", defines=lobes),
         "take": gl.program("take_unshot.vert", "take_unshot.frag"),
     }
     if settings.subdivision != "NONE":
@@ -181,7 +183,8 @@ def set_constant_uniforms(state):
                  "u_epsilon": bounds.epsilon, "u_ortho_half": bounds.radius,
                  "u_neighbour_visibility": int(settings.neighbour_visibility),
                  "u_emitting_surfaces": state.emitting_surfaces,
-                 "u_visibility": 0, **{f"u_{name}": unit for name, unit in MAP_UNITS.items()}}
+                 "u_visibility": 0, **{f"u_{name}": MAP_UNITS[name]
+                                       for name in ("position", "normal", "material", "level")}}
     constants = {
         "attributes": {"u_atlas_size": size, "u_albedo_texture": 0,
                        "u_emission_texture": 1, "u_reflectance_texture": 2},
@@ -196,6 +199,11 @@ def set_constant_uniforms(state):
         "patch": receivers,
         "light": receivers,
         "take": {"u_atlas_size": size},
+        "gathered_power": {f"u_{name}": MAP_UNITS[name]
+                           for name in ("gathered", "position", "material")},
+        "deliver": {"u_atlas_size": size, "u_reflected": 0,
+                    **{f"u_{name}": MAP_UNITS[name]
+                       for name in ("gathered", "gathered_incoming", "material")}},
         # The count pass reads no level map.
         "count": {**{name: value for name, value in receivers.items() if name != "u_level"},
                   "u_atlas_size": size},
@@ -325,6 +333,10 @@ def rasterize(state):
         irradiance = page.textures["irradiance"] = gl.texture((atlas.width, atlas.height), 4)
         page.receivers = gl.framebuffer([irradiance, page.textures["unshot"]] + (
             [page.textures["incoming"]] if state.glossy_lobes else []))
+        gathered = ["gathered"] + (["gathered_incoming"] if state.glossy_lobes else [])
+        for name in gathered:
+            page.textures[name] = gl.texture((atlas.width, atlas.height), 4)
+        page.gather = gl.framebuffer([page.textures[name] for name in gathered])
     measure_surface(state, vaos, keys[starts, 0], starts, ends)
     buried.keep_open_parts(state)
     for page in pages:

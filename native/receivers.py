@@ -1,11 +1,13 @@
 """Receiver update and lights: every receiving texel gathers a shot's light against the
 visibility map (receive_patch.frag for a patch, receive_light.frag for a point, spot or sun
-light) by additive blending into its page's irradiance and unshot maps; a patch first takes
-what it shoots from its texels. Patches shoot in batches (memory.receiver_batch): one pass
-over the texels gathers every shooter of the batch, each against its own visibility map, and
-blends once. The pass draws only the tiles of texels that can receive a shooter (not those
-behind its plane, nor flat ones facing away from it), and a tile gathers only from the
-shooters it can receive. The lights' views, uniforms and power, and the sky as suns."""
+light) into its page's gathered maps; then the unshot power that light would add is summed,
+and each texel adds its light to its irradiance and unshot maps, all scaled down alike where
+they would add more than the shot sent (deliver.frag). A patch first takes what it shoots
+from its texels. Patches shoot in batches (memory.receiver_batch): one pass over the texels
+gathers every shooter of the batch, each against its own visibility map. The pass draws
+only the tiles of texels that can receive a shooter (not those behind its plane, nor flat
+ones facing away from it), and a tile gathers only from the shooters it can receive. The
+lights' views, uniforms and power, and the sky as suns."""
 from dataclasses import dataclass
 import math
 
@@ -30,6 +32,12 @@ BOX_CORNERS = np.array([(0, 1), (2, 1), (2, 3), (0, 1), (2, 3), (0, 3)])
 # Per vertex: the corner (x, y) and the bits of the shooters the tile receives.
 BOX_LAYOUT = (("in_corner", 2), ("in_shooters", 1))
 BOX_VERTEX_BYTES = 3 * 4
+# gathered_power.vert's vertices: a point per tile, its box.
+POWER_LAYOUT = (("in_box", 4),)
+POWER_VERTEX_BYTES = 4 * 4
+# The texture unit of the unshot power a pass would add, in deliver.frag (the visibility
+# map's in the gathering pass).
+REFLECTED_UNIT = 0
 
 
 @dataclass
@@ -47,7 +55,10 @@ class ReceiverTiles:
     nearest_plane: np.ndarray   # (T,)
     normal_deviation: np.ndarray  # (T,)
     vbo: object                 # the boxes drawn for a pass, BOX_CORNERS each (BOX_LAYOUT)
+    power_vbo: object           # and a point each (POWER_LAYOUT)
     vaos: dict                  # per receiver program
+    reflected: object           # 1 x 1 texture: the unshot power a pass's light would add
+    reflected_framebuffer: object
 
 
 def create_tiles(state):
@@ -57,12 +68,19 @@ def create_tiles(state):
         for column, values in zip(columns, _page_tiles(index, page)):
             column.append(values)
     page, boxes, low, high, normal, nearest, deviation = (np.concatenate(c) for c in columns)
-    vbo = state.gl.buffer(reserve=max(len(page), 1) * len(BOX_CORNERS) * BOX_VERTEX_BYTES)
-    vaos = {kind: state.gl.vertex_array(state.programs[kind],
-                                        [buffer_content(state.programs[kind], vbo, BOX_LAYOUT)])
-            for kind in ("patch", "light")}
+    gl, programs = state.gl, state.programs
+    vbo = gl.buffer(reserve=max(len(page), 1) * len(BOX_CORNERS) * BOX_VERTEX_BYTES)
+    power_vbo = gl.buffer(reserve=max(len(page), 1) * POWER_VERTEX_BYTES)
+    vaos = {kind: gl.vertex_array(programs[kind],
+                                  [buffer_content(programs[kind], vbo, BOX_LAYOUT)])
+            for kind in ("patch", "light", "deliver")}
+    vaos["gathered_power"] = gl.vertex_array(programs["gathered_power"], [buffer_content(
+        programs["gathered_power"], power_vbo, POWER_LAYOUT)])
+    reflected = gl.texture((1, 1), 4)
     return ReceiverTiles(page=page, boxes=boxes, low=low, high=high, normal=normal,
-                         nearest_plane=nearest, normal_deviation=deviation, vbo=vbo, vaos=vaos)
+                         nearest_plane=nearest, normal_deviation=deviation, vbo=vbo,
+                         power_vbo=power_vbo, vaos=vaos, reflected=reflected,
+                         reflected_framebuffer=gl.framebuffer([reflected]))
 
 
 def _page_tiles(index, page):
@@ -218,10 +236,13 @@ def receiving_shooters(tiles, shooters, epsilon):
     return bits
 
 
-def update(state, visibility, kind, shooters=None):
-    """The receivers gather the pass's light (program ``kind``: "patch", the batch whose
-    uniforms set_patch_uniforms set, or "light"): the tiles ``shooters`` gives bits of
-    (receiving_shooters), or all of them from the one light."""
+def update(state, visibility, kind, shot_power, shooters=None):
+    """The receivers take the pass's light (program ``kind``: "patch", the batch whose
+    uniforms set_patch_uniforms set, or "light"), which sent ``shot_power`` (W, RGB): the
+    tiles ``shooters`` gives bits of (receiving_shooters), or all of them from the one light.
+    Three passes over those tiles: each texel gathers; the unshot power their light would
+    add is summed on the GPU; each adds its light, scaled so that the unshot power grows by
+    no more than was sent."""
     tiles = state.receiver_tiles
     if shooters is None:
         shooters = np.ones(len(tiles.page), dtype=np.int64)
@@ -233,16 +254,35 @@ def update(state, visibility, kind, shooters=None):
     vertices[..., :2] = tiles.boxes[chosen][:, BOX_CORNERS]
     vertices[..., 2] = shooters[chosen, None]
     tiles.vbo.write(vertices.tobytes())
+    tiles.power_vbo.write(tiles.boxes[chosen].astype(np.float32).tobytes())
     ends = np.searchsorted(tiles.page[chosen], np.arange(len(state.pages) + 1))
+    runs = [(page, int(start), int(end)) for page, start, end
+            in zip(state.pages, ends[:-1], ends[1:]) if start < end]
+
+    def draw_tiles(vao, start, end):
+        vao.render(moderngl.TRIANGLES, first=start * len(BOX_CORNERS),
+                   vertices=(end - start) * len(BOX_CORNERS))
+
+    visibility.texture.use(location=0)
+    for page, start, end in runs:
+        page.gather.use()
+        page.use_maps("position", "normal", "material", "level")
+        draw_tiles(tiles.vaos[kind], start, end)
     with render_state(state.ctx, blend=moderngl.FUNC_ADD):
-        visibility.texture.use(location=0)
-        for page, (start, end) in zip(state.pages, zip(ends[:-1], ends[1:])):
-            if start == end:
-                continue
+        tiles.reflected_framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+        tiles.reflected_framebuffer.use()
+        for page, start, end in runs:
+            page.use_maps("gathered", "position", "material")
+            tiles.vaos["gathered_power"].render(moderngl.POINTS, first=start,
+                                                vertices=end - start)
+        set_uniform(state.programs["deliver"], "u_shot_power",
+                    tuple(float(value) for value in shot_power))
+        tiles.reflected.use(location=REFLECTED_UNIT)
+        for page, start, end in runs:
             page.receivers.use()
-            page.use_maps("position", "normal", "material", "level")
-            tiles.vaos[kind].render(moderngl.TRIANGLES, first=int(start) * len(BOX_CORNERS),
-                                     vertices=int(end - start) * len(BOX_CORNERS))
+            page.use_maps("material", *(("gathered", "gathered_incoming")
+                                        if state.glossy_lobes else ("gathered",)))
+            draw_tiles(tiles.vaos["deliver"], start, end)
 
 
 def sky_suns(radiance, count):

@@ -501,7 +501,7 @@ class Solver:
         receiving = receivers.receiving_shooters(state.receiver_tiles, batch,
                                                  state.bounds.epsilon)
         self._timed("receivers", receivers.update, state, self._visibility, "patch",
-                    receiving)
+                    sum(powers), receiving)
         for shooter in batch:
             if shooter.extent is not None:
                 self._timed("receivers", thin_gaps.close, state, self._gaps, shooter)
@@ -520,7 +520,7 @@ class Solver:
         self._maybe_subdivide(view, float(np.mean(power)), clip_below=False)
         energy.shot_power = energy.shot_power + power
         view.set_uniforms(state.programs["light"], state)
-        self._timed("receivers", receivers.update, state, self._visibility, "light")
+        self._timed("receivers", receivers.update, state, self._visibility, "light", power)
 
     def _maybe_subdivide(self, view, power, *, clip_below):
         queue = self._queue

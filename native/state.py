@@ -18,9 +18,11 @@ OCT_STEPS = 32767.0
 BEND_STEPS = 255
 # A surface rectangle (u min, u max, v min, v max) that holds no point.
 NO_SURFACE = (1e30, -1e30, 1e30, -1e30)
-# Texture units of the maps a receiver pass reads (receiver_common.glsl): the visibility map
-# on 0, then these.
-MAP_UNITS = {"position": 1, "normal": 2, "material": 3, "level": 4}
+# Texture units of the maps the receiver passes read (receiver_common.glsl, then
+# gathered_power.vert and deliver.frag): the visibility map or the pass's delivered power on
+# 0, then these.
+MAP_UNITS = {"position": 1, "normal": 2, "material": 3, "level": 4, "gathered": 5,
+             "gathered_incoming": 6}
 
 
 @dataclass
@@ -37,6 +39,9 @@ class Page:
     textures: dict
     pyramid: list = field(default_factory=list)   # (texture, framebuffer) from block level to 1x1
     receivers: object = None   # framebuffer: irradiance, unshot (made after rasterization)
+    # framebuffer: what a receiver pass gathered (irradiance, and incoming directions where
+    # the scene keeps them), before receivers.update adds it to the maps
+    gather: object = None
     # Where the page's texels holding surface sit in Solver.atlas's page of the same number:
     # flat indices here and there (in_atlas_layout).
     to_atlas: tuple = None

@@ -1,18 +1,28 @@
 // Receiver pass shared by the patch and light shaders: each defines irradiance_at(), the
 // irradiance a point gets from the current shooter (0 where hidden or facing away), and the
 // shooters the pass gathers from (a batch of patches, or one light), one after another.
+// Every texel of a drawn tile writes what it gathered (zero where nothing) into its page's
+// gathered maps; deliver.frag then adds it to the maps, scaled so that the pass delivers
+// no more than its shooters sent (receivers.update).
 uniform sampler2D u_position;
 uniform sampler2D u_normal;
 uniform sampler2D u_level;     // subdivision level of the texel
 
 
-layout(location = 0) out vec4 out_irradiance;  // added to the accumulated irradiance
-layout(location = 1) out vec4 out_unshot;      // added to the unshot radiance
+layout(location = 0) out vec4 out_irradiance;  // the irradiance the texel gathered
 #if GLOSSY_LOBES   // where the scene's glossy layers leave in lobes (lobes.py)
-layout(location = 2) out vec4 out_incoming;    // added to the unshot light's directions: the
-                                               // directions it travelled in (xyz) weighted by
-                                               // the irradiance each brought, and its sum (w)
+layout(location = 1) out vec4 out_incoming;    // the directions it travelled in (xyz)
+                                               // weighted by the irradiance each brought,
+                                               // and its sum (w)
 #endif
+
+// Nothing gathered: the gathered maps are overwritten, not added to.
+void gather_nothing() {
+    out_irradiance = vec4(0.0);
+#if GLOSSY_LOBES
+    out_incoming = vec4(0.0);
+#endif
+}
 
 const float PI = 3.14159265358979;
 
@@ -114,7 +124,10 @@ void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     vec4 position = texelFetch(u_position, texel, 0);
     vec4 material = texelFetch(u_material, texel, 0);
-    if (position.w <= 0.0 || material.a <= 0.0) discard;
+    if (position.w <= 0.0 || material.a <= 0.0) {
+        gather_nothing();
+        return;
+    }
     receiver_surface = decode_surface(material.a);
     vec4 stored_normal = texelFetch(u_normal, texel, 0);
     vec3 normal = decode_normal(stored_normal.xy);
@@ -178,10 +191,7 @@ void main() {
         if (brought > 0.0) incoming += brought * vec4(travel_direction(position.xyz), 1.0);
 #endif
     }
-    if (irradiance.r + irradiance.g + irradiance.b <= 0.0) discard;
-    // The irradiance gained by this texel and the reflected radiance it must shoot later.
     out_irradiance = vec4(irradiance, 0.0);
-    out_unshot = vec4(material.rgb * irradiance / PI, 0.0);
 #if GLOSSY_LOBES
     out_incoming = incoming;
 #endif
