@@ -91,13 +91,8 @@ def received_power(state, irradiance):
     received = np.zeros(3)
     for page, page_irradiance in zip(state.pages, irradiance):
         received = received + (page_irradiance.reshape(-1, 4).T
-                               @ own_area(page).reshape(-1))[:3]
+                               @ page.own_area().reshape(-1))[:3]
     return received
-
-
-def own_area(page):
-    """Per texel the area whose received light is its own (Page.share)."""
-    return page.area if page.share is None else page.area * page.share
 
 
 def reflected_start(state, energy, irradiance, correction, unshot_fraction):
@@ -136,11 +131,11 @@ def ambient_term(state, energy, irradiance, correction, start):
     lands = min(max(landed, 0.0) / shot, 1.0) if shot > 0 else 1.0
     materials = [read_map(page.textures["material"]) for page in state.pages]
     receiving = [material[..., 3] > 0 for material in materials]
-    brought_sum = sum(float((own_area(page) * np.maximum(page_brought, 0)
+    brought_sum = sum(float((page.own_area() * np.maximum(page_brought, 0)
                              * page_receiving).sum())
                       for page, page_brought, page_receiving in zip(state.pages, brought,
                                                                     receiving))
-    receiving_area = sum(float((own_area(page) * page_receiving).sum())
+    receiving_area = sum(float((page.own_area() * page_receiving).sum())
                          for page, page_receiving in zip(state.pages, receiving))
     full = FULLY_REACHED_SHARE * brought_sum / max(receiving_area, 1e-30)
     reached = [np.clip(page_brought / full, 0.0, 1.0).astype(np.float32) * page_receiving
@@ -149,7 +144,7 @@ def ambient_term(state, energy, irradiance, correction, start):
     area, albedo_area = 0.0, np.zeros(3)
     for page, material, page_reached in zip(state.pages, materials, reached):
         # The material map's reflectance is already scaled by each texel's share.
-        area += float((own_area(page) * page_reached).sum(dtype=np.float64))
+        area += float((page.own_area() * page_reached).sum(dtype=np.float64))
         albedo_area = albedo_area + (material[..., :3].reshape(-1, 3).T
                                      @ (page.area * page_reached).reshape(-1)).astype(np.float64)
     if area <= 0:

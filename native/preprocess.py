@@ -12,7 +12,8 @@ from .errors import SettingsError
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
 from .shooters import SHOOTER_CELLS
-from .state import BEND_STEPS, MAP_UNITS, Bounds, Energy, Page, decode_normals, read_map
+from .state import (BEND_STEPS, MAP_UNITS, TOTAL_UNITS, Bounds, Energy, Page, decode_normals,
+                    read_map)
 
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
                  ("in_albedo", 3), ("in_reflectance", 3), ("in_emission", 3), ("in_receive", 1),
@@ -200,10 +201,11 @@ def set_constant_uniforms(state):
         "light": receivers,
         "take": {"u_atlas_size": size},
         "gathered_power": {f"u_{name}": MAP_UNITS[name]
-                           for name in ("gathered", "position", "material")},
-        "deliver": {"u_atlas_size": size, "u_reflected": 0,
+                           for name in ("gathered", "position", "material", "own_area")},
+        "deliver": {"u_atlas_size": size,
+                    **{f"u_{name}": unit for name, unit in TOTAL_UNITS.items()},
                     **{f"u_{name}": MAP_UNITS[name]
-                       for name in ("gathered", "gathered_incoming", "material")}},
+                       for name in ("gathered", "gathered_incoming", "position", "material")}},
         # The count pass reads no level map.
         "count": {**{name: value for name, value in receivers.items() if name != "u_level"},
                   "u_atlas_size": size},
@@ -443,6 +445,8 @@ def measure_emission(state):
         material = read_map(page.textures["material"])
         receives = material[..., 3]
         page.area = np.ascontiguousarray(area[..., 0])
+        page.textures["own_area"] = state.gl.texture(
+            (width, height), 1, data=page.own_area().astype(np.float32).tobytes())
         page.to_atlas = _atlas_texels(state, page_index, area[..., 0] > 0)
         power = math.pi * (emission * area).reshape(-1, 3).astype(np.float64)
         energy.emitted_maps += power.sum(axis=0)

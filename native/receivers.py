@@ -1,8 +1,8 @@
 """Receiver update and lights: every receiving texel gathers a shot's light against the
 visibility map (receive_patch.frag for a patch, receive_light.frag for a point, spot or sun
-light) into its page's gathered maps; then the unshot power that light would add is summed,
-and each texel adds its light to its irradiance and unshot maps, all scaled down alike where
-they would add more than the shot sent (deliver.frag). A patch first takes what it shoots
+light) into its page's gathered maps; then the power that light brings is summed, and each
+texel adds its light to its irradiance and unshot maps, all scaled down alike where the
+texels took more than the shot sent (deliver.frag). A patch first takes what it shoots
 from its texels. Patches shoot in batches (memory.receiver_batch): one pass over the texels
 gathers every shooter of the batch, each against its own visibility map. The pass draws
 only the tiles of texels that can receive a shooter (not those behind its plane, nor flat
@@ -17,7 +17,8 @@ import numpy as np
 from .geometry import frame_around
 from .gpu import buffer_content, render_state, set_uniform
 from .scene import SpotLight, SunLight
-from .state import NO_SURFACE, View, blend_points, decode_normals, read_map
+from .state import (NO_SURFACE, TOTAL_UNITS, View, blend_points, decode_normals,
+                    read_map)
 
 # u_light_kind of receive_light.frag.
 POINT_LIGHT, SPOT_LIGHT, SUN_LIGHT = 0, 1, 2
@@ -35,9 +36,6 @@ BOX_VERTEX_BYTES = 3 * 4
 # gathered_power.vert's vertices: a point per tile, its box.
 POWER_LAYOUT = (("in_box", 4),)
 POWER_VERTEX_BYTES = 4 * 4
-# The texture unit of the unshot power a pass would add, in deliver.frag (the visibility
-# map's in the gathering pass).
-REFLECTED_UNIT = 0
 
 
 @dataclass
@@ -57,8 +55,10 @@ class ReceiverTiles:
     vbo: object                 # the boxes drawn for a pass, BOX_CORNERS each (BOX_LAYOUT)
     power_vbo: object           # and a point each (POWER_LAYOUT)
     vaos: dict                  # per receiver program
-    reflected: object           # 1 x 1 texture: the unshot power a pass's light would add
-    reflected_framebuffer: object
+    # The pass's totals (state.TOTAL_UNITS), 1 x 1 textures by name: the power its texels
+    # received, and the unshot power it would add; and the framebuffer writing them.
+    totals: dict
+    totals_framebuffer: object
 
 
 def create_tiles(state):
@@ -76,11 +76,11 @@ def create_tiles(state):
             for kind in ("patch", "light", "deliver")}
     vaos["gathered_power"] = gl.vertex_array(programs["gathered_power"], [buffer_content(
         programs["gathered_power"], power_vbo, POWER_LAYOUT)])
-    reflected = gl.texture((1, 1), 4)
+    totals = {name: gl.texture((1, 1), 4) for name in TOTAL_UNITS}
     return ReceiverTiles(page=page, boxes=boxes, low=low, high=high, normal=normal,
                          nearest_plane=nearest, normal_deviation=deviation, vbo=vbo,
-                         power_vbo=power_vbo, vaos=vaos, reflected=reflected,
-                         reflected_framebuffer=gl.framebuffer([reflected]))
+                         power_vbo=power_vbo, vaos=vaos, totals=totals,
+                         totals_framebuffer=gl.framebuffer(list(totals.values())))
 
 
 def _page_tiles(index, page):
@@ -240,9 +240,9 @@ def update(state, visibility, kind, shot_power, shooters=None):
     """The receivers take the pass's light (program ``kind``: "patch", the batch whose
     uniforms set_patch_uniforms set, or "light"), which sent ``shot_power`` (W, RGB): the
     tiles ``shooters`` gives bits of (receiving_shooters), or all of them from the one light.
-    Three passes over those tiles: each texel gathers; the unshot power their light would
-    add is summed on the GPU; each adds its light, scaled so that the unshot power grows by
-    no more than was sent."""
+    Three passes over those tiles: each texel gathers; the power their light brings is
+    summed on the GPU; each adds its light, scaled where they took more than was sent
+    (deliver.frag)."""
     tiles = state.receiver_tiles
     if shooters is None:
         shooters = np.ones(len(tiles.page), dtype=np.int64)
@@ -269,19 +269,20 @@ def update(state, visibility, kind, shot_power, shooters=None):
         page.use_maps("position", "normal", "material", "level")
         draw_tiles(tiles.vaos[kind], start, end)
     with render_state(state.ctx, blend=moderngl.FUNC_ADD):
-        tiles.reflected_framebuffer.clear(0.0, 0.0, 0.0, 0.0)
-        tiles.reflected_framebuffer.use()
+        tiles.totals_framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+        tiles.totals_framebuffer.use()
         for page, start, end in runs:
-            page.use_maps("gathered", "position", "material")
+            page.use_maps("gathered", "position", "material", "own_area")
             tiles.vaos["gathered_power"].render(moderngl.POINTS, first=start,
                                                 vertices=end - start)
         set_uniform(state.programs["deliver"], "u_shot_power",
                     tuple(float(value) for value in shot_power))
-        tiles.reflected.use(location=REFLECTED_UNIT)
+        for name, unit in TOTAL_UNITS.items():
+            tiles.totals[name].use(location=unit)
         for page, start, end in runs:
             page.receivers.use()
-            page.use_maps("material", *(("gathered", "gathered_incoming")
-                                        if state.glossy_lobes else ("gathered",)))
+            page.use_maps("position", "material", *(("gathered", "gathered_incoming")
+                                                    if state.glossy_lobes else ("gathered",)))
             draw_tiles(tiles.vaos["deliver"], start, end)
 
 

@@ -19,10 +19,11 @@ BEND_STEPS = 255
 # A surface rectangle (u min, u max, v min, v max) that holds no point.
 NO_SURFACE = (1e30, -1e30, 1e30, -1e30)
 # Texture units of the maps the receiver passes read (receiver_common.glsl, then
-# gathered_power.vert and deliver.frag): the visibility map or the pass's delivered power on
-# 0, then these.
+# gathered_power.vert and deliver.frag), and of the visibility map on 0.
 MAP_UNITS = {"position": 1, "normal": 2, "material": 3, "level": 4, "gathered": 5,
-             "gathered_incoming": 6}
+             "gathered_incoming": 6, "own_area": 8}
+# And of a pass's totals, which deliver.frag reads (receivers.update).
+TOTAL_UNITS = {"received": 0, "reflected": 7}
 
 
 @dataclass
@@ -56,6 +57,10 @@ class Page:
     # the texel reflects into the room, more where glossy layers reflect too)
     albedo: np.ndarray = None
     roughness: np.ndarray = None   # (H, W) float32: its glossy layers' (Scene.roughness)
+
+    def own_area(self):
+        """Per texel the area whose received light is its own (share)."""
+        return self.area if self.share is None else self.area * self.share
 
     def use_maps(self, *names):
         """Bind the named maps to their units (MAP_UNITS)."""

@@ -1,17 +1,22 @@
 #version 410
 // What a receiver pass gathered, added to the page's maps (receivers.update): the
 // irradiance, the radiance the texel reflects and must shoot later, and where glossy layers
-// leave in lobes the directions it came in. Where the pass's light would add more unshot
-// power than its shooters sent (u_reflected over u_shot_power), every texel takes its light
-// scaled down by the same factor, so that no pass makes light: a form factor at a coarse
-// texel's sample point, times the texel's area, can exceed the share of the shot the texel
-// can take, and a level's unshot power then grew without end. Form factors err both ways
-// and cancel over shots in a closed room: the light received alone is not held to what was
-// sent (that darkened a furnace of albedo 0.9 by 4 %).
+// leave in lobes the directions it came in; every texel's light scaled down alike where the
+// pass's texels took more than its shooters sent. A form factor at a coarse texel's sample
+// point, times the texel's area, can exceed the share of the shot the texel can take, and
+// a level's unshot power grew without end. Form factors err both ways and cancel over
+// shots in a closed room: the pass may receive RECEIVED_SURPLUS more than was sent (held
+// to what was sent, a furnace of albedo 0.9 came out 4 % dark), but its light never adds
+// more unshot power than was sent. The unshot power then never rises, and where texels
+// reflect less than 1 / (1 + RECEIVED_SURPLUS) it falls with every shot.
+#include "texel_maps.glsl"
 uniform sampler2D u_gathered;
+uniform sampler2D u_position;
 uniform sampler2D u_material;
-uniform sampler2D u_reflected;   // 1 x 1: the unshot power the pass's light would add
-                                 // (W, RGB)
+// 1 x 1 each (W, RGB): the power the pass's texels received, and the unshot power it would
+// add (gathered_power.vert).
+uniform sampler2D u_received;
+uniform sampler2D u_reflected;
 uniform vec3 u_shot_power;       // what its shooters sent (W, RGB)
 uniform sampler2D u_gathered_incoming;   // read where the scene keeps incoming directions
 layout(location = 0) out vec4 out_irradiance;
@@ -21,17 +26,24 @@ layout(location = 2) out vec4 out_incoming;
 #endif
 
 const float PI = 3.14159265358979;
+const float RECEIVED_SURPLUS = 0.05;
 
 void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
+    vec4 material = texelFetch(u_material, texel, 0);
+    // A texel that does not receive holds what an earlier pass left (gathered_power.vert).
+    if (!receives(texelFetch(u_position, texel, 0), material)) discard;
     vec3 irradiance = texelFetch(u_gathered, texel, 0).rgb;
     float gathered = irradiance.r + irradiance.g + irradiance.b;
     if (gathered <= 0.0) discard;
+    vec3 received = texelFetch(u_received, ivec2(0), 0).rgb;
     vec3 reflected = texelFetch(u_reflected, ivec2(0), 0).rgb;
-    vec3 scale = min(vec3(1.0), u_shot_power / max(reflected, vec3(1e-30)));
+    vec3 scale = min(vec3(1.0), min((1.0 + RECEIVED_SURPLUS) * u_shot_power
+                                    / max(received, vec3(1e-30)),
+                                    u_shot_power / max(reflected, vec3(1e-30))));
     vec3 scaled = irradiance * scale;
     out_irradiance = vec4(scaled, 0.0);
-    out_unshot = vec4(texelFetch(u_material, texel, 0).rgb * scaled / PI, 0.0);
+    out_unshot = vec4(material.rgb * scaled / PI, 0.0);
 #if GLOSSY_LOBES
     // The directions weighted by the irradiance each brought: scaled as its sum.
     out_incoming = texelFetch(u_gathered_incoming, texel, 0)

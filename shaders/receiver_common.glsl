@@ -16,13 +16,7 @@ layout(location = 1) out vec4 out_incoming;    // the directions it travelled in
                                                // and its sum (w)
 #endif
 
-// Nothing gathered: the gathered maps are overwritten, not added to.
-void gather_nothing() {
-    out_irradiance = vec4(0.0);
-#if GLOSSY_LOBES
-    out_incoming = vec4(0.0);
-#endif
-}
+
 
 const float PI = 3.14159265358979;
 
@@ -124,10 +118,9 @@ void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     vec4 position = texelFetch(u_position, texel, 0);
     vec4 material = texelFetch(u_material, texel, 0);
-    if (position.w <= 0.0 || material.a <= 0.0) {
-        gather_nothing();
-        return;
-    }
+    // Not a receiving texel: gathered_power.vert and deliver.frag skip it. A discard, not a
+    // return: llvmpipe leaves the shader where every pixel of a group has discarded.
+    if (!receives(position, material)) discard;
     receiver_surface = decode_surface(material.a);
     vec4 stored_normal = texelFetch(u_normal, texel, 0);
     vec3 normal = decode_normal(stored_normal.xy);

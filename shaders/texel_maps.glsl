@@ -23,6 +23,9 @@ vec3 decode_normal(vec2 stored) {
 }
 
 float encode_surface(float surface) { return (surface + 0.25) / 65535.0; }
+// A texel receives light where it holds surface (an area, in the position map's .w) of a
+// receiving surface (a number above 0, in the material map's .a).
+bool receives(vec4 position, vec4 material) { return position.w > 0.0 && material.a > 0.0; }
 float decode_surface(float stored) { return floor(stored * 65535.0 + 0.5); }
 
 float encode_level(float level) { return (level + 0.25) / 255.0; }
