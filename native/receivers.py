@@ -236,10 +236,11 @@ def receiving_shooters(tiles, shooters, epsilon):
     return bits
 
 
-def update(state, visibility, kind, shot_power, shooters=None):
+def update(state, visibility, kind, sent, shooters=None, *, left_unshot=(0.0, 0.0, 0.0)):
     """The receivers take the pass's light (program ``kind``: "patch", the batch whose
-    uniforms set_patch_uniforms set, or "light"), which sent ``shot_power`` (W, RGB): the
-    tiles ``shooters`` gives bits of (receiving_shooters), or all of them from the one light.
+    uniforms set_patch_uniforms set, or "light"), which sent ``sent`` (W, RGB), of which
+    ``left_unshot`` already left unshot power elsewhere (thin_gaps.close): the tiles
+    ``shooters`` gives bits of (receiving_shooters), or all of them from the one light.
     Three passes over those tiles: each texel gathers; the power their light brings is
     summed on the GPU; each adds its light, scaled where they took more than was sent
     (deliver.frag)."""
@@ -275,8 +276,10 @@ def update(state, visibility, kind, shot_power, shooters=None):
             page.use_maps("gathered", "position", "material", "own_area")
             tiles.vaos["gathered_power"].render(moderngl.POINTS, first=start,
                                                 vertices=end - start)
-        set_uniform(state.programs["deliver"], "u_shot_power",
-                    tuple(float(value) for value in shot_power))
+        program = state.programs["deliver"]
+        set_uniform(program, "u_sent", tuple(float(value) for value in sent))
+        set_uniform(program, "u_unshot_budget", tuple(
+            float(value) for value in np.asarray(sent) - np.asarray(left_unshot)))
         for name, unit in TOTAL_UNITS.items():
             tiles.totals[name].use(location=unit)
         for page, start, end in runs:

@@ -481,8 +481,8 @@ class Solver:
 
     def _shoot_patches(self, batch):
         """Shoot a batch of patches: each one's visibility map, what each takes from its
-        texels, then one receiver pass for them all (the texels receive the sum, in any
-        order), then each one's thin gaps."""
+        texels, each one's thin gaps, then one receiver pass for them all (the texels
+        receive the sum, in any order)."""
         state, energy = self._state, self._energy
         powers = [math.pi * shooter.area * shooter.radiance for shooter in batch]
         energy.shot_power = energy.shot_power + sum(powers)
@@ -497,14 +497,17 @@ class Solver:
             # this view alone.
             self._maybe_subdivide(view, float(np.mean(power)), clip_below=True)
             receivers.take_unshot(state, shooter)
+        # The thin gaps' light first: what leaves them unshot is the batch's too.
+        left_unshot = np.zeros(3)
+        for shooter in batch:
+            if shooter.extent is not None:
+                left_unshot = left_unshot + self._timed(
+                    "receivers", thin_gaps.close, state, self._gaps, shooter)
         receivers.set_patch_uniforms(state, batch, views)
         receiving = receivers.receiving_shooters(state.receiver_tiles, batch,
                                                  state.bounds.epsilon)
         self._timed("receivers", receivers.update, state, self._visibility, "patch",
-                    sum(powers), receiving)
-        for shooter in batch:
-            if shooter.extent is not None:
-                self._timed("receivers", thin_gaps.close, state, self._gaps, shooter)
+                    sum(powers), receiving, left_unshot=left_unshot)
 
     def _shoot_light(self, light):
         state, energy = self._state, self._energy

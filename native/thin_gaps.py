@@ -367,13 +367,14 @@ def close(state, gaps, shooter):
     shooters of a surface tile it exactly, where their quads, rectangles of their texels'
     area, leave holes along a slanted edge). What it shows is the share of the middle of its
     square (SHOWN_SQUARE) under them, less the band along the surface's open edges where the
-    gap's light leaks out."""
+    gap's light leaks out. Returns the unshot power the light leaving the gap left
+    (_leave_unshot)."""
     t, b, n = shooter.frame.T
     centre = shooter.centre
     plane = np.stack([t, b], axis=1)
     polygons, segments = lit_by(state, gaps, shooter)
     if not polygons:
-        return
+        return np.zeros(3)
     lit = [(polygon - centre) @ plane for polygon in polygons]
     corners = np.concatenate(lit)
     reach = float(np.linalg.norm(corners, axis=1).max())   # in_near_field()
@@ -386,6 +387,7 @@ def close(state, gaps, shooter):
         left = ((end - start).conjugate() * (inner - start)).imag > 0.0
         open_edges.append((start, end) if left else (end, start))
     u_min, u_max, v_min, v_max = shooter.extent
+    escapes = []
     for page, texels in zip(state.pages, receiving_texels(state, gaps)):
         near = texels.near(centre, reach)
         offsets = texels.position[near] - centre
@@ -432,15 +434,43 @@ def close(state, gaps, shooter):
         shown = (plates * shown_share).astype(np.float32)
         _add_irradiance(state, page, texels.xy[chosen], shown)
         if escaping.any():
-            unshot = _escaping_unshot(state, gaps, shooter, albedo * plates * escaping,
-                                      texel_area[:, 0], wholes, plane)
-            blend_points(state, page.unshot_only, texels.xy[chosen], _rgba(unshot),
-                         moderngl.FUNC_ADD)
-            gaps.escaped += math.pi * (unshot * texel_area).sum(axis=0)
+            escapes.append(Escape(page=page, texels=texels.xy[chosen], area=texel_area[:, 0],
+                                  unshot=_escaping_unshot(state, gaps, shooter,
+                                                          albedo * plates * escaping,
+                                                          texel_area[:, 0], wholes, plane)))
         gaps.shown_received += (shown * texel_area).sum(axis=0)
         gaps.shown_absorbed += ((1.0 - albedo) * shown * texel_area).sum(axis=0)
         arrived = math.pi * shooter.radiance * under[:, None] * texel_area
         gaps.arrived += arrived.sum(axis=0)
+    return _leave_unshot(state, gaps, shooter, escapes)
+
+
+@dataclass
+class Escape:
+    """The light leaving a gap on one page: its texels (N, 2), their areas (N,) and the
+    unshot radiance (N, 3) it gives them."""
+    page: object
+    texels: np.ndarray
+    area: np.ndarray
+    unshot: np.ndarray
+
+
+def _leave_unshot(state, gaps, shooter, escapes):
+    """Add the light leaving the gap (Escape each page) to its texels' unshot radiance, at
+    most what the shooter sent: the gap's light is its shot's, and at coarse texels beside
+    a small shooter the closed form gave more (with back faces on, a level's unshot power
+    then grew). Returns the unshot power left (W, RGB), which the shot's receiver pass may
+    not add again (receivers.update)."""
+    left = np.zeros(3)
+    for escape in escapes:
+        left = left + math.pi * (escape.unshot * escape.area[:, None]).sum(axis=0)
+    sent = math.pi * shooter.area * np.asarray(shooter.radiance, dtype=np.float64)
+    scale = np.minimum(1.0, sent / np.maximum(left, 1e-30))
+    for escape in escapes:
+        blend_points(state, escape.page.unshot_only, escape.texels,
+                     _rgba(escape.unshot * scale), moderngl.FUNC_ADD)
+    gaps.escaped += left * scale
+    return left * scale
 
 
 def _escaping_unshot(state, gaps, shooter, escaping, texel_area, squares, plane):

@@ -7,7 +7,7 @@
 // a level's unshot power grew without end. Form factors err both ways and cancel over
 // shots in a closed room: the pass may receive RECEIVED_SURPLUS more than was sent (held
 // to what was sent, a furnace of albedo 0.9 came out 4 % dark), but its light never adds
-// more unshot power than was sent. The unshot power then never rises, and where texels
+// more unshot power than was sent, less what the shot's thin gaps left. The unshot power then never rises, and where texels
 // reflect less than 1 / (1 + RECEIVED_SURPLUS) it falls with every shot.
 #include "texel_maps.glsl"
 uniform sampler2D u_gathered;
@@ -17,7 +17,9 @@ uniform sampler2D u_material;
 // add (gathered_power.vert).
 uniform sampler2D u_received;
 uniform sampler2D u_reflected;
-uniform vec3 u_shot_power;       // what its shooters sent (W, RGB)
+uniform vec3 u_sent;             // what its shooters sent (W, RGB)
+uniform vec3 u_unshot_budget;    // and less the unshot power their thin gaps' light left
+                                 // (thin_gaps.close)
 uniform sampler2D u_gathered_incoming;   // read where the scene keeps incoming directions
 layout(location = 0) out vec4 out_irradiance;
 layout(location = 1) out vec4 out_unshot;
@@ -38,9 +40,9 @@ void main() {
     if (gathered <= 0.0) discard;
     vec3 received = texelFetch(u_received, ivec2(0), 0).rgb;
     vec3 reflected = texelFetch(u_reflected, ivec2(0), 0).rgb;
-    vec3 scale = min(vec3(1.0), min((1.0 + RECEIVED_SURPLUS) * u_shot_power
+    vec3 scale = min(vec3(1.0), min((1.0 + RECEIVED_SURPLUS) * u_sent
                                     / max(received, vec3(1e-30)),
-                                    u_shot_power / max(reflected, vec3(1e-30))));
+                                    u_unshot_budget / max(reflected, vec3(1e-30))));
     vec3 scaled = irradiance * scale;
     out_irradiance = vec4(scaled, 0.0);
     out_unshot = vec4(material.rgb * scaled / PI, 0.0);
