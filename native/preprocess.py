@@ -452,7 +452,10 @@ def measure_emission(state):
         energy.emitted_maps += power.sum(axis=0)
         emitting = np.flatnonzero(power.max(axis=1) > 0)
         page.emission_left = (emitting, power[emitting])
-        energy.texel_count += int(np.count_nonzero((area[..., 0] > 0) & (receives > 0)))
+        receiving = (area[..., 0] > 0) & (receives > 0)
+        energy.texel_count += int(np.count_nonzero(receiving))
+        energy.largest_reflectance = np.maximum(
+            energy.largest_reflectance, material[..., :3][receiving].max(axis=0, initial=0.0))
     return energy
 
 

@@ -33,6 +33,9 @@ BOX_CORNERS = np.array([(0, 1), (2, 1), (2, 3), (0, 1), (2, 3), (0, 3)])
 # Per vertex: the corner (x, y) and the bits of the shooters the tile receives.
 BOX_LAYOUT = (("in_corner", 2), ("in_shooters", 1))
 BOX_VERTEX_BYTES = 3 * 4
+# A pass's texels may receive this share more than its shooters sent: the form factors at
+# their sample points err both ways, and cancel over shots in a closed room (deliver.frag).
+RECEIVED_SURPLUS = 0.05
 # gathered_power.vert's vertices: a point per tile, its box.
 POWER_LAYOUT = (("in_box", 4),)
 POWER_VERTEX_BYTES = 4 * 4
@@ -236,14 +239,22 @@ def receiving_shooters(tiles, shooters, epsilon):
     return bits
 
 
-def update(state, visibility, kind, sent, shooters=None, *, left_unshot=(0.0, 0.0, 0.0)):
+def unshot_limit(energy, sent):
+    """The most unshot power a shot that sent ``sent`` (W, RGB) may add: its power times the
+    largest reflectance and the receivers' surplus, at most its power, so that the unshot
+    power falls with every shot where surfaces reflect under 1 / (1 + RECEIVED_SURPLUS)."""
+    share = np.minimum(1.0, (1.0 + RECEIVED_SURPLUS) * energy.largest_reflectance)
+    return np.asarray(sent, dtype=np.float64) * share
+
+
+def update(state, visibility, kind, sent, unshot_left, shooters=None):
     """The receivers take the pass's light (program ``kind``: "patch", the batch whose
-    uniforms set_patch_uniforms set, or "light"), which sent ``sent`` (W, RGB), of which
-    ``left_unshot`` already left unshot power elsewhere (thin_gaps.close): the tiles
-    ``shooters`` gives bits of (receiving_shooters), or all of them from the one light.
-    Three passes over those tiles: each texel gathers; the power their light brings is
-    summed on the GPU; each adds its light, scaled where they took more than was sent
-    (deliver.frag)."""
+    uniforms set_patch_uniforms set, or "light"), which sent ``sent`` (W, RGB), and may add
+    ``unshot_left`` (W, RGB) to the unshot power: the tiles ``shooters`` gives bits of
+    (receiving_shooters), or all of them from the one light. Three passes over those tiles:
+    each texel gathers; the power their light brings is summed on the GPU; each adds its
+    light, scaled where they took more than was sent or would add more unshot power than is
+    left (deliver.frag)."""
     tiles = state.receiver_tiles
     if shooters is None:
         shooters = np.ones(len(tiles.page), dtype=np.int64)
@@ -277,9 +288,9 @@ def update(state, visibility, kind, sent, shooters=None, *, left_unshot=(0.0, 0.
             tiles.vaos["gathered_power"].render(moderngl.POINTS, first=start,
                                                 vertices=end - start)
         program = state.programs["deliver"]
-        set_uniform(program, "u_sent", tuple(float(value) for value in sent))
-        set_uniform(program, "u_unshot_budget", tuple(
-            float(value) for value in np.asarray(sent) - np.asarray(left_unshot)))
+        set_uniform(program, "u_received_limit", tuple(
+            float(value) for value in (1.0 + RECEIVED_SURPLUS) * np.asarray(sent)))
+        set_uniform(program, "u_unshot_limit", tuple(float(value) for value in unshot_left))
         for name, unit in TOTAL_UNITS.items():
             tiles.totals[name].use(location=unit)
         for page, start, end in runs:

@@ -498,16 +498,17 @@ class Solver:
             self._maybe_subdivide(view, float(np.mean(power)), clip_below=True)
             receivers.take_unshot(state, shooter)
         # The thin gaps' light first: what leaves them unshot is the batch's too.
-        left_unshot = np.zeros(3)
-        for shooter in batch:
+        unshot_left = receivers.unshot_limit(energy, sum(powers))
+        for shooter, power in zip(batch, powers):
             if shooter.extent is not None:
-                left_unshot = left_unshot + self._timed(
-                    "receivers", thin_gaps.close, state, self._gaps, shooter)
+                unshot_left = unshot_left - self._timed(
+                    "receivers", thin_gaps.close, state, self._gaps, shooter,
+                    receivers.unshot_limit(energy, power))
         receivers.set_patch_uniforms(state, batch, views)
         receiving = receivers.receiving_shooters(state.receiver_tiles, batch,
                                                  state.bounds.epsilon)
         self._timed("receivers", receivers.update, state, self._visibility, "patch",
-                    sum(powers), receiving, left_unshot=left_unshot)
+                    sum(powers), np.maximum(unshot_left, 0.0), receiving)
 
     def _shoot_light(self, light):
         state, energy = self._state, self._energy
@@ -523,7 +524,8 @@ class Solver:
         self._maybe_subdivide(view, float(np.mean(power)), clip_below=False)
         energy.shot_power = energy.shot_power + power
         view.set_uniforms(state.programs["light"], state)
-        self._timed("receivers", receivers.update, state, self._visibility, "light", power)
+        self._timed("receivers", receivers.update, state, self._visibility, "light", power,
+                    receivers.unshot_limit(energy, power))
 
     def _maybe_subdivide(self, view, power, *, clip_below):
         queue = self._queue

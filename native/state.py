@@ -110,6 +110,9 @@ class Energy:
     emitted_maps: np.ndarray    # what the emitting texels hold
     texel_count: int            # receiving texels
     shooting_blocks: int        # patches (blocks at the patch level) holding texels
+    # The most any receiving texel reflects into the room (RGB): a shot adds at most this
+    # share of its power to the unshot power (receivers.unshot_limit).
+    largest_reflectance: np.ndarray = field(default_factory=lambda: np.zeros(3))
     emitted: np.ndarray = None  # the texels' and the lights'
     emitted_scalar: float = 0.0
     shot_power: np.ndarray = field(default_factory=lambda: np.zeros(3))

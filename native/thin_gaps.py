@@ -354,7 +354,7 @@ def near_thin_gap(state, gaps, region, position, normal, texel_size):
     return thin
 
 
-def close(state, gaps, shooter):
+def close(state, gaps, shooter, unshot_limit):
     """Light the receivers facing the shooter across a thin gap, their sample points within
     a texel of its surface's rectangle (the texels the receiver pass left out:
     receive_patch.frag, across_thin_gap(); beside the surface, the light leaking out of the gap),
@@ -367,8 +367,8 @@ def close(state, gaps, shooter):
     shooters of a surface tile it exactly, where their quads, rectangles of their texels'
     area, leave holes along a slanted edge). What it shows is the share of the middle of its
     square (SHOWN_SQUARE) under them, less the band along the surface's open edges where the
-    gap's light leaks out. Returns the unshot power the light leaving the gap left
-    (_leave_unshot)."""
+    gap's light leaks out. The light leaving the gap adds at most ``unshot_limit`` (W, RGB)
+    to the unshot power; returns what it added (_leave_unshot)."""
     t, b, n = shooter.frame.T
     centre = shooter.centre
     plane = np.stack([t, b], axis=1)
@@ -442,7 +442,7 @@ def close(state, gaps, shooter):
         gaps.shown_absorbed += ((1.0 - albedo) * shown * texel_area).sum(axis=0)
         arrived = math.pi * shooter.radiance * under[:, None] * texel_area
         gaps.arrived += arrived.sum(axis=0)
-    return _leave_unshot(state, gaps, shooter, escapes)
+    return _leave_unshot(state, gaps, escapes, unshot_limit)
 
 
 @dataclass
@@ -455,17 +455,16 @@ class Escape:
     unshot: np.ndarray
 
 
-def _leave_unshot(state, gaps, shooter, escapes):
+def _leave_unshot(state, gaps, escapes, unshot_limit):
     """Add the light leaving the gap (Escape each page) to its texels' unshot radiance, at
-    most what the shooter sent: the gap's light is its shot's, and at coarse texels beside
-    a small shooter the closed form gave more (with back faces on, a level's unshot power
-    then grew). Returns the unshot power left (W, RGB), which the shot's receiver pass may
-    not add again (receivers.update)."""
+    most ``unshot_limit`` (receivers.unshot_limit): the gap's light is its shot's, and at
+    coarse texels beside a small shooter the closed form gave more (with back faces on, a
+    level's unshot power then grew). Returns the unshot power left (W, RGB), which the
+    shot's receiver pass may not add again (receivers.update)."""
     left = np.zeros(3)
     for escape in escapes:
         left = left + math.pi * (escape.unshot * escape.area[:, None]).sum(axis=0)
-    sent = math.pi * shooter.area * np.asarray(shooter.radiance, dtype=np.float64)
-    scale = np.minimum(1.0, sent / np.maximum(left, 1e-30))
+    scale = np.minimum(1.0, unshot_limit / np.maximum(left, 1e-30))
     for escape in escapes:
         blend_points(state, escape.page.unshot_only, escape.texels,
                      _rgba(escape.unshot * scale), moderngl.FUNC_ADD)
