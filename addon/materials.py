@@ -10,7 +10,7 @@ the glossy colour is not black, ROUGHNESS (how wide the glossy layers' lobe is).
 page's images go to the solver as textures through the atlas UVs: the albedo is what the
 lightmap shows (a Cycles DIFFUSE bake's colour), the albedo plus the glossy colour what the
 surface reflects into the room, its glossy share in a lobe as wide as the roughness at the
-triangle's centre (native/lobes.py; see README, "Materials"). Materials whose nodes
+triangle's centre (native/lobes.py; see docs/materials.md). Materials whose nodes
 cannot vary over the surface bake at one sample per sub-texel, SUPERSAMPLE x SUPERSAMPLE a
 texel, each texel the mean of those on a triangle; the others at MATERIAL_SAMPLES jittered
 over the texel (Cycles' pixel filter averages what lies around its centre).

@@ -284,7 +284,7 @@ def configure_cycles(scene, samples, bounces, seed):
     cycles.glossy_bounces = bounces
     # Filter Glossy (1 by default) blurs glossy lobes met after a diffuse bounce, and the
     # blurred lobes reflect less: a room of Blender's default Principled BSDF came out
-    # 4.5-8 % darker than with it off (README, "Light that glossy layers reflect").
+    # 4.5-8 % darker than with it off (docs/glossy-layers.md).
     cycles.blur_glossy = 0.0
     cycles.caustics_reflective = True
     cycles.seed = seed

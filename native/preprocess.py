@@ -47,11 +47,13 @@ SELECTION_REGIONS = 1024
 # Hemisphere maps are twice the hemicube's side: the same texels per radian at the zenith.
 HEMISPHERE_MAP_SCALE = 2
 # The automatic hemicube resolution's least and most: the old fixed default, and where its
-# visibility map (24 B a texel) and render time stay small beside the atlas's (README).
+# visibility map (24 B a texel) and render time stay small beside the atlas's
+# (docs/how-it-works.md).
 AUTOMATIC_HEMICUBE = (128, 512)
 # The automatic hemicube resolves at least this many texels per metre at the typical
 # distance, however coarse the lightmap: at 4 texels/m a map whose texels spanned 12 cm there
-# let light past an office's furniture (BENCHMARKS.md, "The visibility map's resolution").
+# let light past an office's furniture (docs/benchmarks-log.md, "The visibility map's
+# resolution").
 LEAST_MAP_DENSITY = 10.0
 
 
@@ -74,7 +76,7 @@ def hemicube_resolution(settings, scene):
     """Settings.hemicube_resolution, or where it is 0 (automatic) the least power of two
     at which a face texel at its middle (2 / resolution radians), half the scene's diagonal
     away from a shooter, spans no more than a lightmap texel nor 1 / LEAST_MAP_DENSITY, kept
-    within AUTOMATIC_HEMICUBE (its memory and time, README)."""
+    within AUTOMATIC_HEMICUBE (its memory and time: docs/how-it-works.md)."""
     if settings.hemicube_resolution:
         return settings.hemicube_resolution
     lo, hi = scene.bounds()
@@ -164,8 +166,8 @@ def create_programs(gl, settings, *, per_face, receiver_batch, glossy_lobes):
 
 def draws_per_face(ctx, settings):
     """Whether the cube's faces are drawn one by one (Settings.visibility_draw) rather than in
-    one geometry-shader pass: AUTO draws per face on llvmpipe, whose geometry shaders run on
-    one thread (BENCHMARKS.md, "Scaling with texel density")."""
+    one geometry-shader pass: AUTO draws per face on llvmpipe, which runs geometry shaders on
+    the calling thread (docs/benchmarks-log.md, "All four scenes at equal error")."""
     if settings.visibility_draw == "GEOMETRY_SHADER":
         return False
     supported = VERTEX_LAYER_EXTENSION in ctx.extensions

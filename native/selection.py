@@ -18,8 +18,8 @@ from .state import Region
 BATCH_MIN_SHARE = 0.25
 # A patch's side with Settings.patch_size 0 (automatic): that of a square of the scene's
 # surface area over this many. Patches large against the gaps between surfaces send their
-# light across them short (BENCHMARKS.md, "Patches half as wide"); the Cornell box's at 60
-# texels per metre are the shoot level's 4 texels wide.
+# light across them short (docs/benchmarks-log.md, "Patches half as wide"); the Cornell box's
+# at 60 texels per metre are the shoot level's 4 texels wide.
 AUTOMATIC_PATCHES = 1024
 # The adaptive shooting level coarsens a shot by one level (4x the texels) for every 4x less
 # power than the strongest patch shot had, by at most this many levels.

@@ -28,6 +28,7 @@ class Exposed:
     """How Blender (``scene.luxel``) and the command line offer a setting."""
     label: str
     option: str | None         # the command-line flag; None where a SettingPair's sets it
+    trades: str                # what it buys and what it costs, for README's settings table
     subtype: str = 'NONE'      # how Blender draws it: 'FACTOR' a 0-1 slider, 'PIXEL' in px
     digits: int | None = None  # decimals Blender shows, where its 2 or 3 hide the value
 
@@ -156,14 +157,19 @@ MAX_SHOOT_LEVEL = 6
 # Settings has its fields in this order (and report.json its settings).
 SETTINGS = (
     Setting(name="texel_density", kind=float, default=20.0, unit="texels per metre",
-            minimum=0.01, soft_maximum=1000.0, help="Lightmap texels per metre of surface. Each texel takes 66 bytes of GPU "
-            "memory (at 20: 26 kB per square metre); doubling it makes four times the texels "
+            minimum=0.01, soft_maximum=1000.0,
+            help="Lightmap texels per metre of surface. Each texel takes about 86 bytes of GPU "
+            "memory (at 20: 34 kB per square metre); doubling it makes four times the texels "
             "and 2.8 to 4.2 times the time to the threshold (Cornell box, 60 to 240 texels "
             "per metre)",
-            exposed=Exposed(label="Texel Density", option="--density")),
+            exposed=Exposed(label="Texel Density", option="--density",
+                            trades="Finer light and shadow detail against time and GPU memory: "
+                                   "each doubling makes 4x the texels")),
     Setting(name="max_atlas_size", kind=int, default=4096, unit="texels", minimum=16,
             soft_maximum=16384, help="Largest lightmap side; more images when exceeded",
             exposed=Exposed(label="Max Image Size", option="--max-image-size",
+                            trades="Fewer, larger images against what the target engine or GPU "
+                                   "can load",
                             subtype='PIXEL')),
     Setting(name="padding", kind=int, default=2, unit="texels", minimum=1,
             help="Texels between charts"),
@@ -178,24 +184,33 @@ SETTINGS = (
             "1.0 to 1.1 times as long; an office at 4 texels per metre: 256, its furniture 1.8 % "
             "bright against Cycles instead of 4.5 % at 128",
             exposed=Exposed(label="Hemicube Resolution", option="--hemicube",
+                            trades="Small occluders' shadows resolved against time and map "
+                                   "memory; 0 picks it from the density and the scene's size",
                             subtype='PIXEL')),
     Setting(name="shoot_level", kind=int, default=2, minimum=0, maximum=MAX_SHOOT_LEVEL,
             help="The finest mip level shot from: a shooter spans at least 2^level texels",
-            exposed=Exposed(label="Shoot Level", option="--shoot-level")),
+            exposed=Exposed(label="Shoot Level", option="--shoot-level",
+                            trades="Lower: finer shooters, smoother penumbrae near lights, "
+                                   "against more shots")),
     # Shots then follow the scene's light and geometry, not how finely texels sample it.
     Setting(name="patch_size", kind=float, default=0.0, unit="metres", minimum=0.0,
             maximum=1000.0, soft_maximum=10.0, help="Side of the patches that shoot (blocks of texels whose "
             "side is nearest it, no finer than Shoot Level's); 0 sizes them from the scene's "
             "surface area: the Cornell box at 160 texels per metre takes 2,862 shots instead of "
             "8,504 with 4 x 4 texel patches, for the same error",
-            exposed=Exposed(label="Patch Size", option="--patch-size", digits=3)),
+            exposed=Exposed(label="Patch Size", option="--patch-size",
+                            trades="Smaller: more accurate light near surfaces against more "
+                                   "shots; 0 sizes the patches from the scene's area",
+                            digits=3)),
     Setting(name="threshold", kind=float, default=0.01, minimum=0.0, maximum=0.99,
             help="Stop when this fraction of the emitted power is left unshot (sunlight that "
             "misses the scene does not count). At 0.01 the Cornell box at 160 texels per "
             "metre takes 2,686 shots, relative RMS error against Cycles 1.3 %, objects' means "
             "within 1 %; at 0.003, 3,638 shots, twice the time, 0.95 %, within 0.6 %",
-            exposed=Exposed(label="Threshold", option="--threshold", subtype='FACTOR',
-                            digits=4)),
+            exposed=Exposed(label="Threshold", option="--threshold",
+                            trades="Lower: closer to the converged light against more shots and "
+                                   "time",
+                            subtype='FACTOR', digits=4)),
     # 0 scales the limit with the scene (shot_limit): shots to converge grow with its blocks.
     Setting(name="max_shots", kind=int, default=0, unit="shots", minimum=1, maximum=2**31 - 1,
             automatic=0,
@@ -203,16 +218,21 @@ SETTINGS = (
             f"{AUTOMATIC_SHOTS_PER_BLOCK} per shooting block of texels, at least "
             f"{AUTOMATIC_MIN_SHOTS} (a fixed 10,000 stopped the sample interior at 20 texels "
             "per metre at 1.15 % unshot)",
-            exposed=Exposed(label="Max Shots", option="--shots")),
+            exposed=Exposed(label="Max Shots", option="--shots",
+                            trades="A bound on a bake's time against stopping above the "
+                                   "threshold; 0 scales it with the scene")),
     Setting(name="memory_limit", kind=int, default=4 << 30, unit="bytes", minimum=1,
             help="GPU memory Luxel may use"),
     Setting(name="sky_directions", kind=int, default=256, unit="suns", minimum=1,
             maximum=65536, help="Suns that stand in for a uniform sky (the world colour)"),
     Setting(name="projection", kind=str, default="HEMICUBE", choices=PROJECTION_CHOICES,
             help="How visibility is sampled around each shooter",
-            exposed=Exposed(label="Projection", option="--projection")),
-    # llvmpipe runs geometry shaders on one thread (BENCHMARKS.md, "Scaling with texel
-    # density"); the hemisphere projections draw with their own geometry shaders.
+            exposed=Exposed(label="Projection", option="--projection",
+                            trades="Hemicube: the paper's baseline; Non-Linear: exact "
+                                   "spherical triangles, slower on a CPU; Hemisphere: straight "
+                                   "edges where arcs should be, least exact")),
+    # llvmpipe runs geometry shaders on the calling thread (docs/benchmarks-log.md, "All four
+    # scenes at equal error"); the hemisphere projections draw with their own geometry shaders.
     Setting(name="visibility_draw", kind=str, default="AUTO", choices=VISIBILITY_DRAW_CHOICES,
             help="How the hemicube's and the lights' cube faces are drawn"),
     # Section 5.2 of the paper.
@@ -222,31 +242,45 @@ SETTINGS = (
             "see it, against dark speckles where the map undersamples; shadows cast from "
             "farther keep their edges. Parts touching a floor in a furnace, hemicube 64: "
             "worst texel 14 % off instead of 18 %",
-            exposed=Exposed(label="Neighbour Visibility", option="--neighbour-visibility")),
+            exposed=Exposed(label="Neighbour Visibility", option="--neighbour-visibility",
+                            trades="Fewer dark speckles at silhouettes against more map reads per "
+                                   "shadowed receiver")),
     # ADAPTIVE finds each triangle's shadowed share of texels with occlusion queries, and
     # refines the triangles casting those shadows too.
     Setting(name="subdivision", kind=str, default="NONE", choices=SUBDIVISION_CHOICES,
             help="Where texels gather light at several points. Adaptive took 5.7 times as long "
             "on the Cornell box at 160 texels per metre for the same error: it pays where "
             "shadow edges are finer than the texels",
-            exposed=Exposed(label="Subdivision", option="--subdivision")),
+            exposed=Exposed(label="Subdivision", option="--subdivision",
+                            trades="Shadow edges finer than a texel against several times the "
+                                   "time")),
     # Level 0 gathers at the texel's centre, as NONE does (the paper's Table 2 has NONE at 0).
     Setting(name="subdivision_level", kind=int, default=2, minimum=0,
             maximum=MAX_SUBDIVISION_LEVEL, help="A texel at level k gathers light at 4^k points",
-            exposed=Exposed(label="Subdivision Level", option="--subdivision-level")),
+            exposed=Exposed(label="Subdivision Level", option="--subdivision-level",
+                            trades="4^level points per refined texel: smoother shadow edges "
+                                   "against time")),
     Setting(name="subdivision_shadow_min", kind=float, default=0.02, minimum=0.0, maximum=1.0,
             help="Adaptive refines a triangle when at least this share of its texels is in "
             "shadow",
-            exposed=Exposed(label="Shadow Min", option=None, subtype='FACTOR')),
+            exposed=Exposed(label="Shadow Min", option=None,
+                            trades="With Shadow Max, which triangles Adaptive refines: a wider "
+                                   "range refines more, for more time",
+                            subtype='FACTOR')),
     Setting(name="subdivision_shadow_max", kind=float, default=0.98, minimum=0.0, maximum=1.0,
             help="Adaptive refines a triangle when at most this share of its texels is in "
             "shadow",
-            exposed=Exposed(label="Shadow Max", option=None, subtype='FACTOR')),
+            exposed=Exposed(label="Shadow Max", option=None,
+                            trades="With Shadow Min, which triangles Adaptive refines: a wider "
+                                   "range refines more, for more time",
+                            subtype='FACTOR')),
     # The paper's future work (Section 5.1).
     Setting(name="adaptive_shoot_level", kind=bool, default=False,
             help="Shooters with little unshot energy shoot from coarser blocks of texels: "
             "fewer, larger shots",
-            exposed=Exposed(label="Adaptive Shoot Level", option="--adaptive-shoot-level")),
+            exposed=Exposed(label="Adaptive Shoot Level", option="--adaptive-shoot-level",
+                            trades="Fewer, larger shots from weak shooters: faster, coarser "
+                                   "indirect light")),
     Setting(name="shooters_per_selection", kind=int, default=8, unit="shots", minimum=1,
             maximum=64, help="Shots per GPU read-back; 1 is the paper's one by one"),
     # memory.receiver_batch: not with a hemisphere projection or adaptive subdivision.
@@ -263,7 +297,9 @@ SETTINGS = (
             "unshot has every object within 1 % of Cycles with it, 0.6 to 4 % dark "
             "without. Costs a read of the maps each time the unshot fraction halves and two "
             "floats per texel on the CPU",
-            exposed=Exposed(label="Ambient Term", option="--ambient")),
+            exposed=Exposed(label="Ambient Term", option="--ambient",
+                            trades="Near-final brightness long before convergence against a read "
+                                   "of the maps each time the unshot share halves")),
     Setting(name="profile", kind=bool, default=False,
             help="Wait for the GPU after each phase for exact timings"),
 )

@@ -241,7 +241,7 @@ def test_light_that_glossy_layers_reflect_lights_the_other_surfaces(wall_colour)
     bake, its lightmap showing only the diffuse share while the glossy layer's light reaches
     the others as if diffuse (dropped, they were 11-17 % dark). Dark walls, whose glossy
     share is a larger part of what they reflect, tell the normal-incidence share from the
-    white-sky one (README, "Light that glossy layers reflect": the block came out 5 % bright
+    white-sky one (docs/glossy-layers.md: the block came out 5 % bright
     with the white-sky share)."""
     scene = blender_session.empty_file()
     walls = blender_scenes.material("Walls", wall_colour, specular=0.5, roughness=0.5)

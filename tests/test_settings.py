@@ -81,7 +81,8 @@ def refusal(settings):
 # What the settings are meant to be, written out by hand (the defaults as Settings had them
 # before the one declaration, but max_shots: 0, automatic, since the sample scenes at the
 # default density need more than the former 10000, BENCHMARKS.md; the ranges as chosen for it,
-# README): the declaration is held against this, so that a slip in it shows.
+# which README's settings table shows): the declaration is held against this, so that a slip
+# in it shows.
 INTENDED = {   # name: (default, minimum, maximum)
     "texel_density": (20.0, 0.01, None), "max_atlas_size": (4096, 16, None),
     "padding": (2, 1, None), "hemicube_resolution": (0, 8, 4096), "shoot_level": (2, 0, 6),
