@@ -2,7 +2,8 @@
 solver's charting and preprocessing), the shots, then write-back. step() does a little of it
 at a time, so that the modal operator shows each stage and takes Esc between the pieces. The
 .blend changes only in finish(); release() (Esc) and failures leave it untouched. Whatever
-fails is raised as a LuxelError naming what failed, so callers catch that alone."""
+fails is raised as a LuxelError naming what failed, so callers catch that alone.
+remove_lightmaps() takes away what bakes added."""
 from contextlib import contextmanager
 from dataclasses import dataclass
 import inspect
@@ -15,7 +16,7 @@ from . import display
 from .evaluation import RenderEvaluation, differences
 from .export import EXPORT_STAGE, export_steps
 from .materials import evaluate_materials
-from .writeback import lightmap_directory, write_back
+from .writeback import lightmap_directory, remove_written, write_back
 
 GPU_FIX = "update the GPU driver or lower the texel density (Render properties > Luxel Lightmaps)"
 BUG_FIX = "report it as a bug"
@@ -236,6 +237,17 @@ class BakeJob:
                 f"'{self.export.scene.object_names[index]}' is too large for one lightmap "
                 "image at this texel density and was baked coarser: raise Max Image Size "
                 "or lower its Resolution Scale (Object properties > Luxel)")
+
+
+def remove_lightmaps(scene):
+    """Take away everything Luxel's bakes added to ``scene`` and the file: the shown nodes,
+    what write_back wrote, and the stats and materials' emission that finish() kept, so that
+    the file is as before the first bake."""
+    display.hide_baked_lighting(scene)
+    scene.luxel.show_baked = False
+    remove_written(scene)
+    scene.luxel.property_unset("stats")
+    scene.luxel.pop("material_emission", None)
 
 
 def shot_limit_message(stats, threshold):

@@ -12,10 +12,10 @@ import bpy
 from ..native import LuxelError
 from ..native.settings import add_options, given_settings
 from ..native.viewer import serve, write_viewer
-from .bake import BakeJob, divergence_message, shot_limit_message
+from .bake import BakeJob, divergence_message, remove_lightmaps, shot_limit_message
 from .compare import compare_with_cycles, summary_lines
 from .gltf_export import export_gltf
-from .writeback import remove_lightmaps, writable
+from .writeback import writable
 
 EXIT_FAILED = 1
 EXIT_USAGE = 2

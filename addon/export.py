@@ -1,23 +1,22 @@
 """Blender scene -> native.Scene, through the evaluated depsgraph: world-space triangles with
-modifiers and instances applied, Blender's lights and the world colour in Cycles' units, and
-for each mesh its Surface: the corners and material slots that materials.py has Cycles
-evaluate per lightmap texel. What cannot be mapped is approximated and reported."""
+modifiers and instances applied, Blender's lights and the world colour in Cycles' units
+(lights.py), and for each mesh its Surface: the corners and material slots that materials.py
+has Cycles evaluate per lightmap texel. What cannot be mapped is approximated and reported."""
 from dataclasses import dataclass, field
 import itertools
-import math
 import time
 
 import bpy
 import numpy as np
 
-from ..native import PointLight, Scene, SceneError, SetUpProgress, SpotLight, SunLight
-from ..native.atlas import overlapping_faces
+from ..native import PointLight, Scene, SceneError, SetUpProgress
+from ..native.charting import overlapping_faces
 from ..native.scene import UV_TOLERANCE, triangle_areas
 from . import display
+from .lights import AreaLight, light_of, sky_of
 from .materials import instance_key, may_emit
 from .writeback import MODIFIER, UV_MAP, UV_MAP_BACK
 
-DISK_SEGMENTS = 32
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # what Cycles shows for an empty material slot
 # export_steps reads objects for this long between its pauses (a modal bake's timer ticks):
 # short for Esc, long enough that walking again past the instances done costs little.
@@ -429,86 +428,16 @@ class _Exporter:
 
     # ------------------------------------------------------------------- lights
     def add_light(self, obj, matrix):
-        light = obj.data
-        name = obj.original.name
-        colour = np.array(light.color[:3], dtype=np.float64)
-        if getattr(light, "use_temperature", False):
-            colour = colour * np.array(light.temperature_color[:3])
-        power = float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
-        if power < 0.0:
-            self.warn(f"light '{name}' has a negative power and is left out (light cannot be "
-                      "negative); set its power to 0 or more")
-        if power <= 0.0 or colour.max() <= 0.0:
-            return
-        position = matrix[:3, 3]
-        direction = -matrix[:3, 2]
-        direction = direction / np.linalg.norm(direction)
-        if light.type == 'POINT':
-            self.lights.append(PointLight(tuple(position), power, tuple(colour), name))
-        elif light.type == 'SPOT':
-            if light.use_square:
-                self.warn(f"light '{name}': square spots are baked as round cones")
-            self.lights.append(SpotLight(tuple(position), power, tuple(colour), name,
-                                         tuple(direction), float(light.spot_size),
-                                         float(light.spot_blend)))
-        elif light.type == 'SUN':
-            self.lights.append(SunLight(tuple(direction), power, tuple(colour), name))
-        elif light.type == 'AREA':
-            self._add_area_light(light, name, matrix, power, colour)
-
-    def _add_area_light(self, light, name, matrix, power, colour):
-        if light.spread < math.pi - 1e-4:
-            self.warn(f"light '{name}': a spread below 180 degrees is baked as 180")
-        if not getattr(light, "normalize", True):
-            self.warn(f"light '{name}': 'Normalize' off is baked as on (power spread over "
-                      "the light's area)")
-        half_x = 0.5 * light.size
-        half_y = 0.5 * (light.size_y if light.shape in ('RECTANGLE', 'ELLIPSE') else light.size)
-        if light.shape in ('DISK', 'ELLIPSE'):
-            angles = 2.0 * math.pi * np.arange(DISK_SEGMENTS) / DISK_SEGMENTS
-            outline = np.column_stack([half_x * np.cos(angles), half_y * np.sin(angles)])
-        else:
-            outline = np.array([[-half_x, -half_y], [half_x, -half_y], [half_x, half_y],
-                                [-half_x, half_y]])
-        local = np.column_stack([outline, np.zeros(len(outline))])
-        vertices = np.vstack([np.zeros(3), local]) @ matrix[:3, :3].T + matrix[:3, 3]
-        count = len(outline)
-        # Clockwise seen from +Z, so the front faces the light's -Z, where it shines.
-        triangles = np.array([[0, (i + 1) % count + 1, i + 1] for i in range(count)])
-        corners = vertices[triangles]
-        area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
-                                             corners[:, 2] - corners[:, 0]), axis=1).sum()
-        if area <= 0.0:
-            raise SceneError(f"area light '{name}' has zero size; give it a size above 0", name)
-        radiance = power * colour / (math.pi * area)
-        normal = -matrix[:3, 2] / np.linalg.norm(matrix[:3, 2])
-        obj = self.collector.add_object(name)
-        self.collector.add(vertices, np.tile(normal, (len(vertices), 1)), triangles, obj,
-                           np.zeros((count, 3)), np.tile(radiance, (count, 1)), False, False,
-                           False)
-
-    # -------------------------------------------------------------------- world
-    def sky(self):
-        world = self.blender_scene.world
-        if world is None:
-            return (0.0, 0.0, 0.0)
-        tree = world.node_tree
-        output = _active_output(tree, 'ShaderNodeOutputWorld') if tree else None
-        if output is None:
-            return tuple(world.color)
-        if not output.inputs["Surface"].is_linked:
-            return (0.0, 0.0, 0.0)
-        node = output.inputs["Surface"].links[0].from_node
-        if node.bl_idname != 'ShaderNodeBackground':
-            self.warn(f"world '{world.name}': only a Background node is read; the world is "
-                      "baked as its viewport colour")
-            return tuple(world.color)
-        colour, strength = node.inputs["Color"], node.inputs["Strength"]
-        if colour.is_linked or strength.is_linked:
-            self.warn(f"world '{world.name}': a textured or sky world is baked as the "
-                      "Background node's own uniform colour")
-        return tuple(np.maximum(np.array(colour.default_value[:3]) *
-                                float(strength.default_value), 0.0))
+        light = light_of(obj, matrix, self.warn)
+        if isinstance(light, AreaLight):
+            count = len(light.triangles)
+            index = self.collector.add_object(light.name)
+            self.collector.add(light.vertices, np.tile(light.normal, (len(light.vertices), 1)),
+                               light.triangles, index, np.zeros((count, 3)),
+                               np.tile(light.radiance, (count, 1)), two_sided=False,
+                               receive=False, occlude=False)
+        elif light is not None:
+            self.lights.append(light)
 
     def turn_outwards(self):
         """A closed mesh whose normals point inwards is baked on its outside, unless its inside
@@ -571,7 +500,7 @@ class _Exporter:
             object_slot=numbered(c.slot), object_block=numbered(c.block),
             lightmap_uv=(np.concatenate(c.lightmap_uv) if any(
                 np.isfinite(uv).any() for uv in c.lightmap_uv) else None),
-            lights=self.lights, sky=self.sky())
+            lights=self.lights, sky=sky_of(self.blender_scene.world, self.warn))
         return Export(scene, self.receivers, self.surfaces, self.warnings)
 
 
@@ -586,14 +515,6 @@ def _array(collection, attribute, dtype, shape):
 def _faces(polygon):
     count = len(np.unique(polygon))
     return f"{count} face{'' if count == 1 else 's'}"
-
-
-def _active_output(tree, idname):
-    outputs = [n for n in tree.nodes if n.bl_idname == idname]
-    for node in outputs:
-        if node.is_active_output and getattr(node, "target", "ALL") in ('ALL', 'CYCLES'):
-            return node
-    return outputs[0] if outputs else None
 
 
 def _excluded_objects(view_layer):

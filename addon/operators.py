@@ -11,10 +11,9 @@ from bpy.props import StringProperty
 
 from ..native import LuxelError
 from ..native.viewer import GLB_NAME, serve, write_viewer
-from .bake import BakeJob, divergence_message, shot_limit_message
+from .bake import BakeJob, divergence_message, remove_lightmaps, shot_limit_message
 from .compare import compare_with_cycles, summary_lines
 from .gltf_export import export_gltf, scene_has_lightmaps
-from .writeback import remove_lightmaps
 
 TIMER_SECONDS = 0.05
 STEP_SECONDS = 0.1       # work per timer tick: long enough to progress, short for the UI

@@ -222,13 +222,10 @@ def clear_object(obj):
     obj.luxel.image = None
 
 
-def remove_lightmaps(scene):
-    """Take away everything Luxel's bakes added to ``scene`` and the file: the shown nodes, the
-    lightmap images (and their EXR files' links), UV maps, modifiers, snapshots, the node
-    group, offsets, records and stats, so that the file is as before the first bake."""
-    from . import display        # display reads this module's names
-    display.hide_baked_lighting(scene)
-    scene.luxel.show_baked = False
+def remove_written(scene):
+    """Take away what write_back wrote into ``scene`` and the file: the lightmap images (and
+    their EXR files' links), UV maps, modifiers, snapshots, the node group, offsets and
+    records."""
     for obj in scene.objects:
         clear_object(obj)
     for image in _page_images(scene):
@@ -239,8 +236,6 @@ def remove_lightmaps(scene):
     group = bpy.data.node_groups.get(NODE_GROUP)
     if group is not None and group.users == 0:
         bpy.data.node_groups.remove(group)
-    scene.luxel.property_unset("stats")
-    scene.luxel.pop("material_emission", None)
 
 
 def is_stale(obj, depsgraph):

@@ -5,8 +5,9 @@ from .errors import GLUnavailableError, GPUMemoryError, LuxelError, SceneError, 
 from .gpu import create_context
 from .output import read_exr, tone_map, write_exr, write_png
 from .scene import PointLight, Scene, SpotLight, SunLight
+from .set_up import SetUpProgress, lightmap_atlas
 from .settings import MAX_SUBDIVISION_LEVEL, PROJECTIONS, SUBDIVISIONS, Settings
-from .solver import Ledger, Progress, SetUpProgress, Solver, lightmap_atlas
+from .solver import Ledger, Progress, Solver
 
 __all__ = [
     "Atlas", "build_atlas", "GLUnavailableError", "GPUMemoryError", "LuxelError", "SceneError",

@@ -1,5 +1,6 @@
 """Geometry the stages share, on numpy arrays: triangles' planes and bounds, smooth
-surfaces, frames and tangents, texel-to-world maps of charts, and shooter quads."""
+surfaces, frames and tangents, texel spans and texel-to-world maps of charts, and shooter
+quads."""
 from dataclasses import dataclass
 import math
 
@@ -83,6 +84,12 @@ def tangents_of(normals):
     axes = np.eye(3)[np.argmin(np.abs(normals), axis=1)]
     t = axes - normals * (axes * normals).sum(axis=1, keepdims=True)
     return t / np.linalg.norm(t, axis=1, keepdims=True)
+
+
+def texel_span(low, high):
+    """The first texel and one past the last that points from ``low`` to ``high`` cover
+    (integers: texel i spans [i, i + 1); a float's width over an edge does not count)."""
+    return (np.floor(low + 1e-6).astype(np.int64), np.ceil(high - 1e-6).astype(np.int64))
 
 
 def texels_to_world(texel_points, uv, corners):

@@ -107,7 +107,7 @@ class Scene:
     page, and a slot (an object instanced in several blocks) sits at the same offset within
     each block it is in, so that one offset per slot and one per block place every copy.
     lightmap_uv (T, 3, 2), optional: an object's own lightmap UVs in [0, 1], packed as they
-    are (one scale and offset per object, see atlas.overlapping_faces for the check the
+    are (one scale and offset per object, see charting.overlapping_faces for the check the
     add-on makes first); NaN where Luxel charts. An object has them on all its triangles or
     on none.
     albedo_texture_index (T,) into albedo_textures ((H, W, 3 or 4) linear float arrays, row 0

@@ -17,33 +17,25 @@ accumulated irradiance E and the unshot radiance. A lightmap texel is rho * E / 
 diffuse albedo (kept on the CPU), the reflected diffuse radiance a Cycles DIFFUSE bake
 (direct + indirect + colour) writes. Each stage of a shot is a module of its own (preprocess,
 selection, shooters, visibility, subdivision, receivers, thin_gaps, postprocess); they share
-the records of state.py. This module keeps the public API and the per-shot loop.
+the records of state.py. set_up.py makes them, in pieces; this module keeps the public API
+and the per-shot loop.
 """
-import dataclasses
 from dataclasses import dataclass
 import math
 import time
 
 import numpy as np
 
-from . import (lobes, memory, postprocess, preprocess, receivers, selection, shooters, subdivision,
-               thin_gaps, visibility)
-from .atlas import build_atlas, tight_packing
+from . import (postprocess, receivers, selection, set_up, shooters, subdivision, thin_gaps,
+               visibility)
 from .gpu import GLObjects, create_context, using
 from .memory import BYTES_PER_TEXEL  # noqa: F401  (the add-on's tests read it here)
 from .postprocess import Ledger  # noqa: F401  (native's API)
-from .selection import MAX_COARSER_LEVELS, ShotQueue
+from .set_up import SET_UP_STAGES, SetUpProgress
 from .settings import Settings, shot_limit
-from .state import BakeState, Shooter, View, read_map
+from .state import Shooter, View, read_map
 
 PHASES = ("preprocess", "selection", "visibility", "subdivision", "receivers", "postprocess")
-# What Solver(..., staged=True).set_up_step() works through, in order: xatlas charts the
-# surface (one call, minutes on a million triangles), then the maps are made on the GPU.
-SET_UP_STAGES = ("charting", "preprocessing")
-# Pieces of the preprocessing stage, each one step of set_up_step().
-PREPROCESS_PIECES = 4
-# A point of state.blend_points: its texel (2 floats) and value (4 floats).
-POINT_BYTES = (2 + 4) * 4
 
 
 @dataclass
@@ -66,42 +58,6 @@ class Progress:
         return self.finished and not self.converged and not self.diverged
 
 
-@dataclass
-class SetUpProgress:
-    stage: str          # what the next set_up_step() works on: one of SET_UP_STAGES
-    fraction: float     # the share of the set-up done
-
-
-def lightmap_atlas(scene, settings):
-    """The atlas a Solver of ``scene`` and ``settings`` lays its lightmaps out on, charted
-    before any GPU work (the Solver then finds it in build_atlas's cache): the add-on
-    evaluates the materials per texel of it first. Refuses, as the Solver does, a density whose
-    surface alone would overflow the memory."""
-    scene = scene.with_back_faces()
-    settings.validate()
-
-    # No GL context yet: the Solver checks the texture size limit too.
-    memory.check_surface_fits(scene, settings, lambda density: _fits_at(
-        scene, settings, density, max_texture_size=math.inf))
-    return _chart(scene, settings, settings.texel_density)
-
-
-def _chart(scene, settings, density):
-    """The one call to build_atlas, so that the add-on's atlas and the Solver's are one."""
-    return build_atlas(scene, density, settings.max_atlas_size, settings.padding,
-                       align=1 << settings.shoot_level)
-
-
-def _fits_at(scene, settings, density, max_texture_size):
-    """Whether the packed atlas of ``density`` fits (memory's search for one that does); the
-    automatic hemicube resolution follows the density too."""
-    packed = tight_packing(_chart(scene, settings, density), 1 << settings.shoot_level)[0]
-    map_size = preprocess.visibility_map_size(
-        dataclasses.replace(settings, texel_density=density), scene)
-    return memory.fits(packed, settings, map_size, max_texture_size,
-                       texel_bytes=memory.bytes_per_texel(scene))
-
-
 class Solver:
     """GPU progressive radiosity for one scene. Create, step, read progress and results,
     release. Pass ``ctx`` to share an existing moderngl context; every call makes it current
@@ -110,7 +66,6 @@ class Solver:
     def __init__(self, scene, settings=None, ctx=None, *, staged=False):
         """Chart and preprocess ``scene``; with ``staged`` only make the GL context, and leave
         the set-up to set_up_step(), a piece at a time."""
-        self._given_scene = scene
         self.settings = settings or Settings()
         self.settings.validate()
         self.timings = dict.fromkeys(PHASES, 0.0)
@@ -125,6 +80,7 @@ class Solver:
         self.ctx = None
         self._gl = None
         self._set_up_pieces = None
+        self._bake = None       # set_up.Bake, once the set-up is done
         self.set_up_progress = SetUpProgress(stage=SET_UP_STAGES[0], fraction=0.0)
         self._started = time.perf_counter()
         try:
@@ -133,7 +89,7 @@ class Solver:
         except BaseException:
             self.release()
             raise
-        self._set_up_pieces = self._set_up()
+        self._set_up_pieces = set_up.pieces(scene, self.settings, self.ctx, self._gl)
         if not staged:
             while self.set_up_step():
                 pass
@@ -148,14 +104,13 @@ class Solver:
             return False
         try:
             with using(self.ctx):
-                following = self._timed("preprocess", next, self._set_up_pieces, None)
+                self.set_up_progress = self._timed("preprocess", next, self._set_up_pieces)
+        except StopIteration as done:   # the last piece ran: the set-up returned the bake
+            self._set_up_pieces, self._bake = None, done.value
+            self.set_up_progress = SetUpProgress(stage=SET_UP_STAGES[-1], fraction=1.0)
         except BaseException:
             self.release()
             raise
-        if following is None:
-            self._set_up_pieces = None
-            following = SetUpProgress(stage=SET_UP_STAGES[-1], fraction=1.0)
-        self.set_up_progress = following
         return self._set_up_pieces is not None
 
     def step(self):
@@ -173,14 +128,14 @@ class Solver:
             self.finished = True
             return False
         with using(self.ctx):
-            if not self._queue.shots and not self._select_shots():
+            queue = self._bake.queue
+            if not queue.shots and not self._select_shots():
                 self.finished = True
                 return False
-            queue = self._queue
             shot = queue.shots.pop(0)
             if isinstance(shot, Shooter):
                 batch = [shot]
-                most = min(self._state.receiver_batch, self.shot_limit - self.shots)
+                most = min(self._bake.state.receiver_batch, self.shot_limit - self.shots)
                 while len(batch) < most and queue.shots and isinstance(queue.shots[0], Shooter):
                     batch.append(queue.shots.pop(0))
                 self._shoot_patches(batch)
@@ -211,7 +166,7 @@ class Solver:
         the neighbouring values (alpha 0)."""
         ambient = self._ambient if self.settings.ambient else None
         with using(self.ctx):
-            return self._timed("postprocess", postprocess.lightmaps, self._state, ambient,
+            return self._timed("postprocess", postprocess.lightmaps, self._bake.state, ambient,
                                reflected=reflected)
 
     def texel_samples(self):
@@ -220,14 +175,15 @@ class Solver:
         'coverage' (the share of the texel square on the surface: 1 inside charts, less at
         their borders) and 'occupied' (a receiving texel). Row 0 at v = 0, as in result()."""
         with using(self.ctx):
-            return postprocess.texel_samples(self._state)
+            return postprocess.texel_samples(self._bake.state)
 
     def ledger(self):
         """Energy ledger from the GPU maps (read back, summed in double precision)."""
+        bake = self._bake
         with using(self.ctx):
-            queued = [shot for shot in self._queue.shots if not isinstance(shot, Shooter)]
-            return postprocess.ledger(self._state, self._energy, self._gaps, [
-                self._light_power(light) for light in self._queue.pending + queued])
+            queued = [shot for shot in bake.queue.shots if not isinstance(shot, Shooter)]
+            return postprocess.ledger(bake.state, bake.energy, bake.gaps, [
+                self._light_power(light) for light in bake.queue.pending + queued])
 
     def ambient_radiance(self):
         """The unshot light that has bounced at least once, as uniform radiance (Cohen et al.
@@ -242,15 +198,16 @@ class Solver:
         albedo times this when Settings.ambient is on."""
         with using(self.ctx):
             return self._ambient([read_map(page.textures["irradiance"])
-                                  for page in self._state.pages]).radiance
+                                  for page in self._bake.state.pages]).radiance
 
     def _ambient(self, irradiance):
-        start = self._reflected_starts[0] if self._reflected_starts else None
-        return postprocess.ambient_term(self._state, self._energy, irradiance,
+        bake = self._bake
+        start = bake.reflected_starts[0] if bake.reflected_starts else None
+        return postprocess.ambient_term(bake.state, bake.energy, irradiance,
                                         self._gap_correction(), start)
 
     def _gap_correction(self):
-        return self._gaps.arrived - self._gaps.shown_received
+        return self._bake.gaps.arrived - self._bake.gaps.shown_received
 
     def release(self):
         """Release every GL object (and the context, if the solver made it). Idempotent."""
@@ -274,6 +231,22 @@ class Solver:
         return 0 if self._gl is None else len(self._gl)
 
     @property
+    def scene(self):
+        """The scene solved: the one given, back faces that receive added as triangles of
+        their own (Scene.with_back_faces)."""
+        return self._bake.scene
+
+    @property
+    def atlas(self):
+        """The layout of the lightmaps result() returns."""
+        return self._bake.atlas
+
+    @property
+    def atlas_seconds(self):
+        """Of the set-up's time: xatlas's charting and the tight packing, on the CPU."""
+        return self._bake.atlas_seconds
+
+    @property
     def shot_limit(self):
         """Where step() stops above the threshold: Settings.max_shots, or where it is 0 a
         limit that grows with the scene's texels (settings.shot_limit)."""
@@ -281,11 +254,11 @@ class Solver:
 
     @property
     def texel_count(self):
-        return self._energy.texel_count
+        return self._bake.energy.texel_count
 
     @property
     def gpu_memory_bytes(self):
-        return self._memory_bytes
+        return self._bake.memory_bytes
 
     @property
     def page_size(self):
@@ -295,103 +268,17 @@ class Solver:
     @property
     def gpu_page_size(self):
         """(width, height) of the pages the GPU works on: the charts packed tight."""
-        return self._state.packed.width, self._state.packed.height
-
-    # ----------------------------------------------------------------- set-up
-    def _set_up(self):
-        """The set-up's pieces, one per next(): charting, then preprocessing. After each
-        piece but the last it yields the progress naming the next."""
-        # Back faces that receive are solved as triangles of their own, after the scene's.
-        self.scene = scene = self._given_scene.with_back_faces()
-        settings, gl = self.settings, self._gl
-        surfaces, emitting_surfaces = preprocess.number_surfaces(scene)
-        state = self._state = BakeState(
-            ctx=self.ctx, gl=gl, scene=scene, settings=settings,
-            bounds=preprocess.bounds_of(scene),
-            map_size=preprocess.visibility_map_size(settings, scene),
-            surfaces=surfaces, emitting_surfaces=emitting_surfaces,
-            glossy=lobes.has_glossy(scene), glossy_lobes=lobes.needed(scene))
-        texel_bytes = memory.bytes_per_texel(scene)
-        memory.check_surface_fits(scene, settings, self._fits_at)
-        started = time.perf_counter()
-        self.atlas = state.atlas = _chart(scene, settings, settings.texel_density)
-        # The GPU works on the charts packed tight; results go back to self.atlas's layout.
-        state.packed, state.texel_map = tight_packing(self.atlas, 1 << settings.shoot_level)
-        state.patch_level = selection.patch_level(
-            settings, float(scene.triangle_area[state.packed.triangles].sum()))
-        self.atlas_seconds = time.perf_counter() - started   # of preprocess: xatlas, on the CPU
-        state.receiver_batch = memory.receiver_batch(state.packed, settings, state.map_size,
-                                                     texel_bytes=texel_bytes)
-        self._memory_bytes = memory.memory_needed(state.packed, settings, state.map_size,
-                                                  state.receiver_batch, texel_bytes=texel_bytes)
-        memory.check_memory(state.packed, settings, self._memory_bytes,
-                            self._fits(state.packed, state.map_size), self._fits_at)
-        yield self._preprocessing(0)
-
-        preprocess.create_gpu_state(state)   # programs, albedo textures, pages
-        thin_gaps.set_constant_uniforms(state.programs["patch"])
-        yield self._preprocessing(1)
-
-        raster = preprocess.rasterize(state)
-        self._slots = subdivision.prepare(state, raster, preprocess.RASTER_LAYOUT)
-        if settings.subdivision == "REGULAR":
-            subdivision.raise_levels(state, self._slots, np.nonzero(self._slots.receives)[0],
-                                     settings.subdivision_level)
-        yield self._preprocessing(2)
-
-        self._visibility = visibility.create(state)
-        self._gaps = thin_gaps.create(state)
-        block = 1 << (state.patch_level + (MAX_COARSER_LEVELS if settings.adaptive_shoot_level
-                                           else 0))
-        # What a shot changes in place (state.blend_points): grows with the largest such set.
-        state.points_vbo = gl.buffer(reserve=block * block * POINT_BYTES)
-        self._shooters = shooters.ShooterCaches(
-            occluders=self._visibility.occluders,
-            staging=gl.buffer(reserve=shooters.staging_bytes(settings, block)))
-        state.points_vao = gl.vertex_array(state.programs["take"], [
-            (state.points_vbo, "2f 4f", "in_texel", "in_taken")])
-        self._queue = ShotQueue()
-        # postprocess.ReflectedStart: the latest two, from when the direct light was shot on,
-        # one more each time the unshot fraction halves.
-        self._reflected_starts = []
-        yield self._preprocessing(3)
-
-        self._measure_emission()
-        lights = list(scene.lights) + receivers.sky_suns(scene.sky, settings.sky_directions)
-        pending = self._queue.pending = [light for light in lights
-                                         if np.mean(self._light_power(light)) > 0]
-        energy = self._energy
-        energy.emitted = energy.emitted_maps + sum((self._light_power(l) for l in pending),
-                                                   np.zeros(3))
-        energy.emitted_scalar = float(np.mean(energy.emitted))
-
-    @staticmethod
-    def _preprocessing(pieces_done):
-        """The progress before the preprocessing stage's piece ``pieces_done`` + 1: charting
-        counts as the first half of the set-up."""
-        return SetUpProgress(stage=SET_UP_STAGES[1],
-                             fraction=0.5 + 0.5 * pieces_done / PREPROCESS_PIECES)
-
-    def _measure_emission(self):
-        self._energy = preprocess.measure_emission(self._state)
-        self._state.receiver_tiles = receivers.create_tiles(self._state)
-
-    def _fits(self, atlas, map_size):
-        return memory.fits(atlas, self.settings, map_size, self.ctx.info["GL_MAX_TEXTURE_SIZE"],
-                           texel_bytes=memory.bytes_per_texel(self.scene))
-
-    def _fits_at(self, density):
-        return _fits_at(self.scene, self.settings, density,
-                        max_texture_size=self.ctx.info["GL_MAX_TEXTURE_SIZE"])
+        return self._bake.state.packed.width, self._bake.state.packed.height
 
     def _light_power(self, light):
-        return receivers.light_power(light, self._state.bounds.radius)
+        return receivers.light_power(light, self._bake.state.bounds.radius)
 
     # ----------------------------------------------------------------- the shots
     def _select_shots(self):
         """Measure the unshot power and queue the next shots: up to shooters_per_selection
         pending lights, or as many patches. False once converged."""
-        queue = self._queue
+        bake = self._bake
+        queue = bake.queue
         candidates = self._measure_unshot()
         if self.converged or self.diverged:
             return False
@@ -401,10 +288,10 @@ class Solver:
             return True
         if self._reflected_start_due():
             start = self._timed(
-                "selection", postprocess.reflected_start, self._state, self._energy,
-                [read_map(page.textures["irradiance"]) for page in self._state.pages],
+                "selection", postprocess.reflected_start, bake.state, bake.energy,
+                [read_map(page.textures["irradiance"]) for page in bake.state.pages],
                 self._gap_correction(), self._unshot_fraction)
-            self._reflected_starts = self._reflected_starts[-1:] + [start]
+            bake.reflected_starts = bake.reflected_starts[-1:] + [start]
         queue.shots = self._timed("selection", self._make_shooters, candidates, count)
         # The GPU's float sums saw power the texels do not hold.
         self.converged = not queue.shots
@@ -414,8 +301,9 @@ class Solver:
         """Measure the unshot fraction, and whether it converged; returns the candidate
         blocks to shoot. Where it rose (shots made light), go back to the last checkpoint
         and stop: diverged, nothing to shoot."""
-        queue, energy = self._queue, self._energy
-        candidates, total = self._timed("selection", selection.measure, self._state)
+        bake = self._bake
+        queue, energy = bake.queue, bake.energy
+        candidates, total = self._timed("selection", selection.measure, bake.state)
         pending = sum(float(np.mean(self._light_power(light))) for light in queue.pending)
         unshot = total + pending
         # The power, not the fraction: the sun's light that misses the scene leaves the
@@ -432,19 +320,20 @@ class Solver:
         if not self.converged and (kept is None or self._unshot_fraction
                                    <= postprocess.CHECKPOINT_FALL * kept.unshot_fraction):
             self._checkpoint = self._timed(
-                "selection", postprocess.checkpoint, self._state, energy, self._gaps,
-                queue.pending, self._reflected_starts, self.shots, self._unshot_fraction)
+                "selection", postprocess.checkpoint, bake.state, energy, bake.gaps,
+                queue.pending, bake.reflected_starts, self.shots, self._unshot_fraction)
         return candidates
 
     def _go_back(self):
         """Back to the last checkpoint, finished and diverged: its lightmaps, ledger and
         unshot fraction are the bake's."""
+        bake = self._bake
         kept = self._checkpoint
-        postprocess.restore(self._state, kept, self._gaps)
-        self._energy = kept.energy
-        self._queue.pending = list(kept.pending)
-        self._queue.shots = []
-        self._reflected_starts = list(kept.reflected_starts)
+        postprocess.restore(bake.state, kept, bake.gaps)
+        bake.energy = kept.energy
+        bake.queue.pending = list(kept.pending)
+        bake.queue.shots = []
+        bake.reflected_starts = list(kept.reflected_starts)
         self._unshot_fraction = kept.unshot_fraction
         self.converged = False
         self.diverged = self.finished = True
@@ -455,18 +344,20 @@ class Solver:
         time the unshot fraction has halved. The ambient term measures from the older of the
         latest two: the shots since then are much like those that will shoot what is left
         (dimmer patches in corners, whose light lands more than the floor's did)."""
-        if self._reflected_starts:
-            return self._unshot_fraction <= 0.5 * self._reflected_starts[-1].unshot_fraction
+        bake = self._bake
+        if bake.reflected_starts:
+            return self._unshot_fraction <= 0.5 * bake.reflected_starts[-1].unshot_fraction
         left = sum(float(np.mean(page.emission_left[1].sum(axis=0)))
-                   for page in self._state.pages)
-        return left <= self.settings.threshold * self._energy.emitted_scalar
+                   for page in bake.state.pages)
+        return left <= self.settings.threshold * bake.energy.emitted_scalar
 
     def _make_shooters(self, candidates, count):
         """Shooters of up to ``count`` candidate blocks (or of their finer parts), strongest
         first. Their texels are read back before any of them shoots, all in one wait for the
         GPU."""
-        state, caches = self._state, self._shooters
-        chosen = selection.regions_to_shoot(state, self._energy, self._queue, candidates, count)
+        bake = self._bake
+        state, caches = bake.state, bake.shooters
+        chosen = selection.regions_to_shoot(state, bake.energy, bake.queue, candidates, count)
         made = []
         for (region, finer), maps in zip(chosen, shooters.read_blocks(
                 state, caches, [region for region, _ in chosen])):
@@ -474,7 +365,7 @@ class Solver:
                 charts = shooters.charts_of(state, caches, region, maps, rows)
                 shooter = shooters.make_shooter(state, caches, part, part_maps, charts)
                 if shooter is not None:
-                    shooter.extent = thin_gaps.extent(state, self._gaps, part, part_maps,
+                    shooter.extent = thin_gaps.extent(state, bake.gaps, part, part_maps,
                                                       shooter)
                     made.append(shooter)
         return made
@@ -483,7 +374,8 @@ class Solver:
         """Shoot a batch of patches: each one's visibility map, what each takes from its
         texels, each one's thin gaps, then one receiver pass for them all (the texels
         receive the sum, in any order)."""
-        state, energy = self._state, self._energy
+        bake = self._bake
+        state, energy = bake.state, bake.energy
         powers = [math.pi * shooter.area * shooter.radiance for shooter in batch]
         energy.shot_power = energy.shot_power + sum(powers)
         energy.reflected_surplus = energy.reflected_surplus + sum(
@@ -491,7 +383,7 @@ class Solver:
         # Each shooter looks from just above its surface and clips what lies behind it.
         views = [View(eye=shooter.centre + shooter.frame[:, 2] * state.bounds.epsilon,
                       frame=shooter.frame, orthographic=False) for shooter in batch]
-        self._timed("visibility", visibility.render_batch, state, self._visibility, views)
+        self._timed("visibility", visibility.render_batch, state, bake.visibility, views)
         for shooter, view, power in zip(batch, views, powers):
             # Adaptive subdivision shoots one at a time (memory.receiver_batch): the map holds
             # this view alone.
@@ -502,38 +394,40 @@ class Solver:
         for shooter, power in zip(batch, powers):
             if shooter.extent is not None:
                 unshot_left = unshot_left - self._timed(
-                    "receivers", thin_gaps.close, state, self._gaps, shooter,
+                    "receivers", thin_gaps.close, state, bake.gaps, shooter,
                     receivers.unshot_limit(energy, power))
         receivers.set_patch_uniforms(state, batch, views)
         receiving = receivers.receiving_shooters(state.receiver_tiles, batch,
                                                  state.bounds.epsilon)
-        self._timed("receivers", receivers.update, state, self._visibility, "patch",
+        self._timed("receivers", receivers.update, state, bake.visibility, "patch",
                     sum(powers), np.maximum(unshot_left, 0.0), receiving)
 
     def _shoot_light(self, light):
-        state, energy = self._state, self._energy
+        bake = self._bake
+        state, energy = bake.state, bake.energy
         power = self._light_power(light)
         view = receivers.light_view(light, state.bounds)
         receivers.set_light_uniforms(state, light)
         faces = visibility.SUN_FACES if view.orthographic else visibility.ALL_FACES
-        self._timed("visibility", visibility.render, state, self._visibility, view,
+        self._timed("visibility", visibility.render, state, bake.visibility, view,
                     faces=faces, clip_below=False)
         if view.orthographic:   # the sun's window: what misses the scene is not left unshot
             energy.sunlight_missed += float(np.mean(power)) * (
-                1.0 - visibility.covered_share(state, self._visibility))
+                1.0 - visibility.covered_share(state, bake.visibility))
         self._maybe_subdivide(view, float(np.mean(power)), clip_below=False)
         energy.shot_power = energy.shot_power + power
         view.set_uniforms(state.programs["light"], state)
-        self._timed("receivers", receivers.update, state, self._visibility, "light", power,
+        self._timed("receivers", receivers.update, state, bake.visibility, "light", power,
                     receivers.unshot_limit(energy, power))
 
     def _maybe_subdivide(self, view, power, *, clip_below):
-        queue = self._queue
+        bake = self._bake
+        queue = bake.queue
         queue.strongest_shot = max(queue.strongest_shot, power)
         if (self.settings.subdivision == "ADAPTIVE"
                 and power >= subdivision.SUBDIVISION_MIN_SHARE * queue.strongest_shot):
-            self._timed("subdivision", subdivision.subdivide_shadowed, self._state, self._slots,
-                        self._visibility, view, clip_below=clip_below)
+            self._timed("subdivision", subdivision.subdivide_shadowed, bake.state, bake.slots,
+                        bake.visibility, view, clip_below=clip_below)
 
     def _timed(self, phase, function, *args, **kwargs):
         start = time.perf_counter()

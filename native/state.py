@@ -89,7 +89,7 @@ class BakeState:
     emitting_surfaces: int      # surfaces 1..this emit
     atlas: object = None        # the lightmaps' layout (Solver.atlas)
     packed: object = None       # the charts packed tight: the pages the GPU works on
-    texel_map: object = None    # packed page texels -> atlas texels (atlas.tight_packing)
+    texel_map: object = None    # packed page texels -> atlas texels (packing.tight_packing)
     patch_level: int = 0        # the mip level whose blocks shoot (selection.patch_level)
     receiver_tiles: object = None  # receivers.ReceiverTiles: what the receiver pass draws
     programs: dict = None

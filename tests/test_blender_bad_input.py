@@ -419,8 +419,8 @@ def test_an_absurd_texel_density_names_the_memory_needed_and_a_density_that_fits
     scene.luxel.texel_density = 1e6
     before = blend_state(scene)
     charted = []
-    original = native.solver.build_atlas
-    monkeypatch.setattr(native.solver, "build_atlas", lambda scene, density, *args, **kwargs:
+    original = native.set_up.build_atlas
+    monkeypatch.setattr(native.set_up, "build_atlas", lambda scene, density, *args, **kwargs:
                         charted.append(density) or original(scene, density, *args, **kwargs))
     message = bake_error("GPU memory")
     assert max(charted) < 1e3, "refused before xatlas charts the surface at 10^6 texels/m"

@@ -12,6 +12,7 @@ import blender_session
 bpy = blender_session.blender()
 native = importlib.import_module(blender_session.MODULE + ".native")
 atlas_module = importlib.import_module(blender_session.MODULE + ".native.atlas")
+packing = importlib.import_module(blender_session.MODULE + ".native.packing")
 export = importlib.import_module(blender_session.MODULE + ".addon.export")
 
 
@@ -34,6 +35,6 @@ def test_every_chart_of_a_subdivided_pole_holds_triangles():
     np.testing.assert_array_equal(np.unique(atlas.chart), np.arange(atlas.chart.max() + 1))
     with warnings.catch_warnings():
         warnings.simplefilter("error")      # an empty chart's infinite bounds cast to int
-        tight, texel_map = atlas_module.tight_packing(atlas, 4)
+        tight, texel_map = packing.tight_packing(atlas, 4)
     assert texel_map is not None
     assert len(texel_map.offsets) == atlas.chart.max() + 1

@@ -26,7 +26,7 @@ RELATIVE = 0.05          # of Cycles' mean, per channel
 # box at 50 k texels in small. Its floor was 2.6 % over Cycles while the 3x3 neighbour vote lit
 # a map texel's width of every shadow edge.
 # The panel room: its walls were 5.5-6.7 % dark while the thin gap over the panel kept all
-# its light (thin_gaps.edge_escape).
+# its light (thin_gap_edges.edge_escape).
 RELATIVE_BY_CASE = {"cornell-box": 0.02, "panel-room": 0.03}
 ABSOLUTE = 0.01          # of the brightest object's mean in the same channel
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])

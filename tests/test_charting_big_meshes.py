@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from native import PointLight, Scene
-from native import atlas as atlas_module
+from native import charting
 from native.atlas import build_atlas, clear_cache
 from native.samples import SceneBuilder
 from tests import scenes
@@ -47,7 +47,7 @@ def quad_grid(cells):
 
 @pytest.mark.parametrize("piece", [50, 100_000])
 def test_pieces_keep_faces_whole_and_charts_apart(monkeypatch, piece):
-    monkeypatch.setattr(atlas_module, "XATLAS_PIECE_TRIANGLES", piece)
+    monkeypatch.setattr(charting, "XATLAS_PIECE_TRIANGLES", piece)
     scene = quad_grid(24)
     clear_cache()
     atlas = build_atlas(scene, 30.0, max_size=1024, padding=2)
@@ -88,7 +88,7 @@ def two_boxes(shift_second=0.0):
 
 def test_meshes_of_one_shape_are_charted_once_and_a_changed_one_alone_again(monkeypatch):
     generated = []
-    monkeypatch.setattr(atlas_module, "_generate",
+    monkeypatch.setattr(charting, "_generate",
                         lambda atlas, *options: generated.append(atlas) or atlas.generate(
                             *options))
     clear_cache()

@@ -93,10 +93,10 @@ def test_too_many_texels_reports_memory_and_a_density_that_fits(ctx, gl_clean):
 def test_an_absurd_density_is_refused_before_xatlas_charts_it(ctx, gl_clean, monkeypatch):
     """At 10^6 texels per metre xatlas would chart for hours; the surface area alone shows
     the memory would not do, and the density suggested is one whose atlas was checked."""
-    import native.solver
+    import native.set_up
     charted = []
-    original = native.solver.build_atlas
-    monkeypatch.setattr(native.solver, "build_atlas", lambda scene, density, *args, **kwargs:
+    original = native.set_up.build_atlas
+    monkeypatch.setattr(native.set_up, "build_atlas", lambda scene, density, *args, **kwargs:
                         charted.append(density) or original(scene, density, *args, **kwargs))
     limit = 2 << 20
     with pytest.raises(GPUMemoryError) as error:

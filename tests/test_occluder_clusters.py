@@ -18,7 +18,7 @@ def test_a_blocker_of_many_clusters_leaves_the_receiver_dark(ctx, gl_clean):
     solver = Solver(builder.build(), Settings(texel_density=16, threshold=0.001, ambient=False,
                                               hemicube_resolution=64), ctx=ctx)
     try:
-        assert solver._visibility.cluster_low.shape[0] > 1
+        assert solver._bake.visibility.cluster_low.shape[0] > 1
         solver.run()
         assert solver.shots > 0
         image, samples = solver.result()[0], solver.texel_samples()[0]

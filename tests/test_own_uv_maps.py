@@ -7,7 +7,8 @@ import pytest
 
 import scenes
 from native import PointLight, SceneError, Settings, Solver
-from native.atlas import build_atlas, overlapping_faces
+from native.atlas import build_atlas
+from native.charting import overlapping_faces
 from native.samples import SceneBuilder
 
 

@@ -13,7 +13,7 @@ def bake(scene, ctx, **settings):
     solver = Solver(scene, Settings(max_shots=64, threshold=0.0, **settings), ctx=ctx)
     try:
         solver.run()
-        return solver.result(), solver.shots, solver._state.receiver_batch
+        return solver.result(), solver.shots, solver._bake.state.receiver_batch
     finally:
         solver.release()
 

@@ -11,7 +11,7 @@ def test_tiles_left_out_hold_no_texel_in_front_of_the_shooter_and_facing_it(ctx,
     solver = Solver(cornell_box(), Settings(texel_density=40, max_shots=24, threshold=0.0),
                     ctx=ctx)
     try:
-        state = solver._state
+        state = solver._bake.state
         tiles, epsilon = state.receiver_tiles, state.bounds.epsilon
         maps = [(read_map(page.textures["position"]), decode_normals(
             read_map(page.textures["normal"]))) for page in state.pages]

@@ -10,7 +10,7 @@ import pytest
 import scenes
 from conftest import ROOT
 from native import PointLight, SetUpProgress, Settings, Solver, SpotLight, SunLight
-from native import solver as solver_module
+from native import preprocess, set_up
 from native.samples import SceneBuilder, cornell_box
 
 
@@ -125,26 +125,24 @@ def test_maps_take_under_87_bytes_per_texel_at_their_peak(ctx, gl_clean, monkeyp
 
 def test_setup_failing_halfway_releases_what_it_made(ctx, gl_clean, monkeypatch):
     made = []
-    original = Solver._measure_emission
 
-    def fail(self):
-        made.extend(self._gl._objects)
+    def fail(state):
+        made.extend(state.gl._objects)
         raise RuntimeError("simulated failure after allocation")
 
-    monkeypatch.setattr(Solver, "_measure_emission", fail)
+    monkeypatch.setattr(preprocess, "measure_emission", fail)
     with pytest.raises(RuntimeError, match="simulated"):
         Solver(cornell_box(), Settings(texel_density=10), ctx=ctx)
     assert len(made) > 20
     assert all(type(obj.mglo).__name__ == "InvalidObject" for obj in made)
-    monkeypatch.setattr(Solver, "_measure_emission", original)
 
 
 def test_a_failing_set_up_gives_the_callers_context_back(ctx, monkeypatch):
     """Inside Blender another context is current: a failure must hand it back too."""
-    def fail(self):
+    def fail(state):
         raise RuntimeError("simulated failure in the set-up")
 
-    monkeypatch.setattr(Solver, "_measure_emission", fail)
+    monkeypatch.setattr(preprocess, "measure_emission", fail)
     other = moderngl.create_standalone_context(backend="egl")
     try:
         with other:
@@ -167,8 +165,8 @@ def test_a_staged_set_up_charts_then_preprocesses_a_piece_at_a_time(ctx, gl_clea
     and grows to 1. The bake then fills the furnace to its reflected radiance
     rho * L / (1 - rho): 1 at albedo 0.5 and emitted radiance 1."""
     charted = []
-    original = solver_module.build_atlas
-    monkeypatch.setattr(solver_module, "build_atlas",
+    original = set_up.build_atlas
+    monkeypatch.setattr(set_up, "build_atlas",
                         lambda *args, **kwargs: charted.append(args[1]) or original(*args,
                                                                                    **kwargs))
     solver = Solver(scenes.furnace_cube(0.5), Settings(texel_density=8, threshold=0.002,

@@ -1,6 +1,7 @@
-"""The thin gaps' plane geometry and edge band (native/thin_gaps.py) against independent
-truths: areas and lengths in closed form, Lambert's form factor, and the band solved by a
-different method (analytic.gap_edge_deficit: uniform cells, bounce after bounce)."""
+"""The thin gaps' plane geometry (native/plane_polygons.py) and edge band
+(native/thin_gap_edges.py) against independent truths: areas and lengths in closed form,
+Lambert's form factor, and the band solved by a different method (analytic.gap_edge_deficit:
+uniform cells, bounce after bounce)."""
 import math
 
 import pytest
@@ -8,9 +9,9 @@ import pytest
 import analytic
 import numpy as np
 
-from native.thin_gaps import (area, band_cells, chord_lengths, clipped, clipped_segment,
-                              edge_band, edge_deficit, edge_escape, outlines_of, share_under,
-                              signed_area, square)
+from native.plane_polygons import (area, chord_lengths, clipped, clipped_segment, outlines_of,
+                                   share_under, signed_area, square)
+from native.thin_gap_edges import band_cells, edge_band, edge_deficit, edge_escape
 
 UNIT_SQUARE = square(0.5 + 0.5j, 0.5, 0.5j)
 

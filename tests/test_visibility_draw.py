@@ -67,7 +67,7 @@ def maps(solver, drawn_views):
     view, as raw bits."""
     from native.receivers import light_view
     from native.scene import SunLight
-    state, vis = solver._state, solver._visibility
+    state, vis = solver._bake.state, solver._bake.visibility
     found = []
     with using(solver.ctx):
         for view, faces, clip_below in drawn_views:
@@ -92,8 +92,8 @@ def test_per_face_draws_give_the_geometry_shaders_maps_bit_for_bit(ctx, gl_clean
     for draw in ("GEOMETRY_SHADER", "PER_FACE"):
         solver = solver_for(ctx, draw)
         try:
-            assert solver._state.per_face_visibility == (draw == "PER_FACE")
-            assert len(solver._visibility.cluster_low) > 10
+            assert solver._bake.state.per_face_visibility == (draw == "PER_FACE")
+            assert len(solver._bake.visibility.cluster_low) > 10
             drawn[draw] = maps(solver, views())
         finally:
             solver.release()
@@ -124,7 +124,7 @@ def test_the_facing_away_bit_is_the_corners_orientation_seen_from_the_eye(ctx, g
     normal points along them."""
     solver = solver_for(ctx, draw)
     try:
-        state = solver._state
+        state = solver._bake.state
         corners = solver.scene.vertices[solver.scene.triangles]
         normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         surfaces = state.surfaces
