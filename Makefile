@@ -5,12 +5,11 @@
 #   make view   shows what make bake baked in a web page (glTF, three.js) on 127.0.0.1:8000
 #   make test-matrix  installs the extension zip into Blender 4.2, 4.5, 5.0, 5.2 and 5.3 and bakes
 PYTHON ?= python3.11
-DEVICE ?= llvmpipe
 VENV := .venv
 BIN := $(VENV)/bin
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 
-.PHONY: bake test test-matrix compare bench bench-equal-error bench-projections extension extension-check samples clean \
+.PHONY: bake test test-matrix compare benchmarks extension extension-check samples clean \
 	viewer view chromium babylon
 
 $(BIN)/python:
@@ -44,7 +43,7 @@ view: viewer
 
 # The tests that load Blender run in a process of their own: Mesa's GL, used after Blender in
 # the same process, aborted in a later test (the deadlock seen in full runs was xatlas's, see
-# native/atlas.py). Importing the repository's package loads no bpy (__init__.py), since
+# native/charting.py). Importing the repository's package loads no bpy (__init__.py), since
 # pytest imports it as the parent of tests/.
 BLENDER_TESTS := $(shell grep -l blender_session tests/test_*.py)
 
@@ -85,40 +84,18 @@ compare: $(VENV)/.blender
 	$(BIN)/python tools/blender.py -b sample_blends/cornell_box.blend --command luxel compare \
 		--output out/compare --density 60 --threshold 0.01 --samples 1024 --view-samples 256
 
-bench: $(VENV)/.bench
-	$(BIN)/python bench/bench_core.py --shoot-level 0 --json bench/results/core-$(DEVICE).json
-	$(BIN)/python bench/plot.py
-
-# Time to 5 %, 2 % and 1 % relative RMS against two averaged Cycles references, Luxel and
-# Cycles on this machine, for the four sample scenes (about 25 min on 2 cores with llvmpipe);
-# the saved references let bench/bench_gpu_curve.py measure Luxel on a GPU machine without
-# Blender. (Office: Luxel to 5 % unshot only.)
-bench-equal-error: $(VENV)/.bench
-	mkdir -p out
-	$(BIN)/python bench/bench_equal_error.py --scene cornell_box --density 60 --samples 1024 \
-		--exclude ceiling --save-reference out/reference-cornell_box.npz \
-		--json bench/results/equal-error-cornell_box-$(DEVICE).json
-	$(BIN)/python bench/bench_equal_error.py --scene temple --density 2 --samples 512 \
-		--save-reference out/reference-temple.npz \
-		--json bench/results/equal-error-temple-$(DEVICE).json
-	$(BIN)/python bench/bench_equal_error.py --scene living --density 8 --samples 512 --exclude ceiling \
-		--save-reference out/reference-living.npz \
-		--json bench/results/equal-error-living-$(DEVICE).json
-	$(BIN)/python bench/bench_equal_error.py --scene office --density 4 --samples 1024 \
-		--threshold 0.05 --exclude ceiling --save-reference out/reference-office.npz \
-		--json bench/results/equal-error-office-$(DEVICE).json
-
-# The paper's Table 2 and Figure 6; sizes scaled down for software rendering by default
-# (SIZE_SCALE=1 THRESHOLD=0.01 CONVERGENCE_SIZE=256 for the paper's sizes on a GPU).
-SIZE_SCALE ?= 0.125
-THRESHOLD ?= 0.03
-CONVERGENCE_SIZE ?= 32
-bench-projections: $(VENV)/.bench
-	$(BIN)/python bench/bench_projections.py --size-scale $(SIZE_SCALE) --threshold $(THRESHOLD) \
-		--cycles --json bench/results/projections-$(DEVICE).json
-	$(BIN)/python bench/bench_projection_convergence.py --size $(CONVERGENCE_SIZE) \
-		--json bench/results/projection-convergence-$(DEVICE).json
-	$(BIN)/python bench/plot.py
+# Every study of bench/ re-measured on one commit (bench/run.py: bench/results/STUDY.json),
+# then BENCHMARKS.md's tables and bench/results/STUDY.png made again (bench/report.py).
+# DEVICE=cpu (the default): sizes for llvmpipe on 2 CPU cores, about 40 minutes in all;
+# DEVICE=gpu: the paper's sizes, where a GPU renders OpenGL. One study alone:
+# make benchmarks STUDY=table1, or python bench/paper.py table1 (bench/run.py --help lists
+# the studies and their scripts); DRY_RUN=1 prints the plan and runs nothing. The real levels
+# are read from LEVELS (a folder of LEVEL.obj; the repository does not ship them).
+DEVICE ?= cpu
+benchmarks: $(VENV)/.bench
+	$(if $(LEVELS),LUXEL_LEVELS=$(LEVELS) )$(BIN)/python bench/run.py --device $(DEVICE) \
+		$(STUDY) $(if $(DRY_RUN),--dry-run); status=$$?; \
+		$(if $(DRY_RUN),exit $$status,$(BIN)/python bench/report.py && exit $$status)
 
 # The installable extension: dist/luxel-<version>.zip with the dependency wheels.
 extension: viewer | $(BIN)/python

@@ -3,7 +3,7 @@ change that must not change behaviour (a refactor of the solver).
 
     python bench/bake_identity.py bake [--checkout PATH] --output DIR
     python bench/bake_identity.py compare BEFORE AFTER
-    python bench/bake_identity.py bench-core BEFORE_CHECKOUT AFTER_CHECKOUT [--runs N]
+    python bench/bake_identity.py figure1 BEFORE_CHECKOUT AFTER_CHECKOUT [--runs N]
 
 bake runs `blender -b SCENE.blend --command luxel bake` (tools/blender.py, with this
 interpreter's bpy) on each scene of sample_blends/ with the fixed settings of SCENES below and
@@ -17,18 +17,18 @@ for bit (the pixel data only: header attributes do not count); it prints, per fi
 or the largest absolute difference and the number of texels that differ, and exits 1 on any
 difference.
 
-bench-core runs bench/bench_core.py of the two checkouts in turn, A B A B ..., so that a drift
-of the machine's speed hits both alike, and prints each phase's median seconds per side and
-the median of the after/before ratios taken pair by pair. Options after -- go to both
-bench_core.py runs. A before/after check of a refactor, from the repository's root:
+figure1 runs `bench/paper.py figure1` (the per-step breakdown) of the two checkouts in turn,
+A B A B ..., so that a drift of the machine's speed hits both alike, and prints each phase's
+median seconds per side and the median of the after/before ratios taken pair by pair.
+Options after -- go to both paper.py runs (--quick, --device gpu). A before/after check of a
+refactor, from the repository's root:
 
     git worktree add ../luxel-before main
     .venv/bin/python bench/bake_identity.py bake --checkout ../luxel-before \\
         --output out/identity-before
     .venv/bin/python bench/bake_identity.py bake --output out/identity-after
     .venv/bin/python bench/bake_identity.py compare out/identity-before out/identity-after
-    .venv/bin/python bench/bake_identity.py bench-core ../luxel-before . --runs 5 \\
-        -- --shoot-level 0
+    .venv/bin/python bench/bake_identity.py figure1 ../luxel-before . --runs 5
 """
 import argparse
 import json
@@ -147,22 +147,23 @@ def compare(before, after):
 
 
 def timed_figures(row):
-    """One bench_core.py size's seconds by name: its phases, profiled total and plain total."""
-    return {**row["phases"], "total": row["seconds"], "unprofiled": row["unprofiled_seconds"]}
+    """One figure1 size's seconds by name: its phases, profiled total and plain total."""
+    return {**row["phases"], "total": row["profiled_seconds"], "unprofiled": row["seconds"]}
 
 
-def bench_core(before, after, runs, bench_options):
-    """Medians of bench_core.py's per-phase seconds, the two checkouts run in turn."""
+def figure1(before, after, runs, bench_options):
+    """Medians of figure1's per-phase seconds, the two checkouts run in turn."""
     results = {"before": [], "after": []}
-    with tempfile.TemporaryDirectory(prefix="luxel-bench-core-") as folder:
+    with tempfile.TemporaryDirectory(prefix="luxel-figure1-") as folder:
         for run in range(runs):
             for side, checkout in (("before", before), ("after", after)):
-                report = Path(folder) / f"{side}-{run}.json"
-                command = [sys.executable, str(checkout / "bench" / "bench_core.py"),
-                           *bench_options, "--json", str(report)]
+                out = Path(folder) / f"{side}-{run}"
+                command = [sys.executable, str(checkout / "bench" / "paper.py"), "figure1",
+                           *bench_options, "--out", str(out)]
                 if subprocess.run(command, stdout=subprocess.DEVNULL).returncode != 0:
-                    sys.exit(f"bench-core: failed: {' '.join(command)}")
-                results[side].append(json.loads(report.read_text())["rows"])
+                    sys.exit(f"figure1: failed: {' '.join(command)}")
+                study = json.loads((out / "figure1.json").read_text())
+                results[side].append(next(iter(study["runs"].values()))["results"]["rows"])
                 print(f"run {run + 1}/{runs}: {side} ({checkout}) done", flush=True)
     print(f"{'texels':>9} {'shooters':>8} {'phase':>12} {'before s':>10} {'after s':>10} "
           f"{'after/before':>12}")
@@ -189,14 +190,14 @@ def main():
     compare_parser = commands.add_parser("compare", help="compare two bakes' lightmaps")
     compare_parser.add_argument("before", type=Path)
     compare_parser.add_argument("after", type=Path)
-    bench_parser = commands.add_parser("bench-core", help="bench_core.py of two checkouts, "
+    bench_parser = commands.add_parser("figure1", help="paper.py figure1 of two checkouts, "
                                        "in turn", usage="%(prog)s [--runs N] BEFORE AFTER "
-                                       "[-- BENCH_CORE_OPTIONS]")
+                                       "[-- PAPER_OPTIONS]")
     bench_parser.add_argument("before", type=Path, help="checkout before the change")
     bench_parser.add_argument("after", type=Path, help="checkout after the change")
     bench_parser.add_argument("--runs", type=int, default=5, help="runs of each checkout")
-    # What follows -- goes to bench_core.py as it is, split off by hand: argparse would read
-    # it as this script's own arguments.
+    # What follows -- goes to paper.py as it is, split off by hand: argparse would read it as
+    # this script's own arguments.
     argv = sys.argv[1:]
     ours, bench_options = (argv[:argv.index("--")], argv[argv.index("--") + 1:]) \
         if "--" in argv else (argv, [])
@@ -213,7 +214,7 @@ def main():
     else:
         if args.runs < 1:
             parser.error("--runs must be 1 or more")
-        bench_core(args.before.resolve(), args.after.resolve(), args.runs, bench_options)
+        figure1(args.before.resolve(), args.after.resolve(), args.runs, bench_options)
 
 
 if __name__ == "__main__":

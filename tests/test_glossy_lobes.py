@@ -290,10 +290,10 @@ def test_only_scenes_with_smooth_glossy_layers_keep_incoming_directions():
 
 
 # Cycles' white furnace of Blender's default Principled BSDF (base 0.8) by roughness
-# (bench/bench_glossy_furnace.py, BENCHMARKS.md "Glossy layers in a white furnace"): the DIFFUSE
-# and GLOSSY colours at normal incidence, and the white-sky albedo of both. The Fresnel rise's
-# damping was fitted at roughness 0.2, 0.5 and 1; 0.75 lies between. (At 0.35 the texels
-# come out 0.977-0.998 of it: the sharper lobe, point-sampled; BENCHMARKS.md.)
+# (`bench/accuracy.py glossy-furnace`, BENCHMARKS.md "Glossy layers in a white furnace"): the
+# DIFFUSE and GLOSSY colours at normal incidence, and the white-sky albedo of both. The Fresnel
+# rise's damping was fitted at roughness 0.2, 0.5 and 1; 0.75 lies between. (At 0.35 the texels
+# come out 0.977-0.998 of it: the sharper lobe, point-sampled; docs/benchmarks-log.md.)
 DEFAULT_MATERIAL_FURNACE = [(0.5, 0.770, 0.0374, 0.8107), (0.75, 0.7784, 0.0267, 0.8067)]
 
 
