@@ -47,11 +47,19 @@ view: viewer
 # pytest imports it as the parent of tests/.
 BLENDER_TESTS := $(shell grep -l blender_session tests/test_*.py)
 
+# Two lanes side by side, each mostly one core's work (the solver's GL on llvmpipe; Blender's
+# Python and Cycles): the solver's tests then the extension in each Blender, beside the Blender
+# tests then the farm's. The first lane's output follows the second's when both are done.
 test: $(VENV)/.dev viewer chromium babylon
-	$(BIN)/python -m pytest -q tests $(addprefix --ignore=,$(BLENDER_TESTS))
-	$(BIN)/python -m pytest -q $(BLENDER_TESTS)
-	$(MAKE) --no-print-directory test-matrix MATRIX="4.2 4.5 5.2 5.3"
-	$(MAKE) --no-print-directory test-farm
+	mkdir -p out
+	( $(BIN)/python -m pytest -q -p no:cacheprovider tests \
+		$(addprefix --ignore=,$(BLENDER_TESTS)) \
+	  && $(MAKE) --no-print-directory test-matrix MATRIX="4.2 4.5 5.2 5.3" \
+	) > out/test-solver.log 2>&1 & solver=$$!; \
+	$(BIN)/python -m pytest -q $(BLENDER_TESTS) && $(MAKE) --no-print-directory test-farm; \
+	blender=$$?; wait $$solver; solver=$$?; \
+	echo "--- the solver's tests and the Blender matrix:"; cat out/test-solver.log; \
+	test $$blender -eq 0 && test $$solver -eq 0
 
 # The browser viewer's three.js (viewer/package-lock.json), which native/viewer.py copies.
 viewer: viewer/node_modules/.installed
