@@ -102,11 +102,13 @@ def relative_argv():
 
 
 def commit():
-    """The short commit, with "-dirty" when the tree (result files aside) differs from it."""
+    """The short commit, with "-dirty" when what runs (the code, result files and the
+    documents aside) differs from it."""
     def git(*args):
         return subprocess.run(["git", *args], cwd=ROOT, capture_output=True,
                               text=True).stdout.strip()
-    changed = git("status", "--porcelain", "--", ".", ":(exclude)bench/results")
+    changed = git("status", "--porcelain", "--", ".", ":(exclude)bench/results",
+                  ":(exclude)*.md", ":(exclude)docs")
     return git("rev-parse", "--short", "HEAD") + ("-dirty" if changed else "")
 
 

@@ -147,9 +147,9 @@ PROJECTIONS = tuple(choice.identifier for choice in PROJECTION_CHOICES)
 SUBDIVISIONS = tuple(choice.identifier for choice in SUBDIVISION_CHOICES)
 MAX_SUBDIVISION_LEVEL = 3
 # Max Shots 0 stops a bake at this many shots per block of 4^shoot_level texels, at least
-# AUTOMATIC_MIN_SHOTS: measured when the blocks were what shot (bench/bench_shot_limit.py,
-# BENCHMARKS.md); the patches that shoot now hold as many blocks or more, so the limit only
-# grows looser.
+# AUTOMATIC_MIN_SHOTS: measured when the blocks were what shot (`python bench/scaling.py
+# shot-limit`, BENCHMARKS.md); the patches that shoot now hold as many blocks or more, so the
+# limit only grows looser.
 AUTOMATIC_SHOTS_PER_BLOCK = 20
 AUTOMATIC_MIN_SHOTS = 10000
 MAX_SHOOT_LEVEL = 6
