@@ -96,9 +96,14 @@ def plan_line(study, device, size):
 
 
 def relative_argv():
-    script = Path(sys.argv[0]).resolve()
-    return [str(script.relative_to(ROOT)) if script.is_relative_to(ROOT) else sys.argv[0],
-            *sys.argv[1:]]
+    """The command line with paths inside the repository relative to its root, as anyone
+    would type it there."""
+    def relative(argument):
+        path = Path(argument)
+        if path.is_absolute() and path.resolve().is_relative_to(ROOT):
+            return str(path.resolve().relative_to(ROOT))
+        return argument
+    return [relative(str(Path(sys.argv[0]).resolve())), *map(relative, sys.argv[1:])]
 
 
 def commit():

@@ -1,6 +1,6 @@
 """Real game levels, from OBJ files the project does not ship (bench/common.py has the
-command line; the folder of LEVEL.obj files is LUXEL_LEVELS, by default ../shared/levels
-beside the repository, and a study without it is skipped):
+command line; the folder of LEVEL.obj files is LUXEL_LEVELS, by default bench/levels/ (git ignores
+it), and a study without it is skipped):
 
     python bench/levels.py levels        # each level baked by the solver: shots, time, unshot
     python bench/levels.py level-views   # a level through Blender, seen from cameras in it,
@@ -32,7 +32,7 @@ VIEW_BOUNCES = 64        # every bounce that matters at albedo 0.8 (0.8^64 ~ 1e-
 
 
 def levels_folder():
-    return Path(os.environ.get("LUXEL_LEVELS", common.ROOT.parent / "shared" / "levels"))
+    return Path(os.environ.get("LUXEL_LEVELS", common.ROOT / "bench" / "levels"))
 
 
 def level_paths(names):

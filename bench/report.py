@@ -14,8 +14,11 @@ from pathlib import Path
 import re
 import sys
 
-RESULTS = Path(__file__).resolve().parent / "results"
-MARKDOWN = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"
+import common  # puts the repository on the path
+from native.memory import BYTES_PER_TEXEL  # noqa: E402
+
+RESULTS = common.RESULTS
+MARKDOWN = common.ROOT / "BENCHMARKS.md"
 MARKER = re.compile(r"^<!-- bench:(?P<study>[\w-]+) (?P<end>begin|end) -->$")
 DEVICE_ORDER = ("gpu", "cpu")
 PROJECTIONS = {"HEMICUBE": "hemicube", "HEMISPHERE": "hemisphere",
@@ -252,15 +255,15 @@ def curve_end(points, unit):
 def equal_error_lines(results):
     rows = []
     for scene in results["scenes"]:
-        times = {entry["target"]: entry for entry in scene["times_to"]}
+        reached = {entry["target"]: entry for entry in scene["times_to"]}
         cells = [scene["scene"], f"{scene['density']:g}", count(scene["texels"])]
-        cells += [in_seconds(times[t]["luxel_seconds"]) or "not reached"
+        cells += [in_seconds(reached[t]["luxel_seconds"]) or "not reached"
                   for t in results["targets"]]
         cells.append(curve_end(scene["luxel"], "shots"))
-        cells += [in_seconds(times[t]["cycles_seconds"]) or "not reached"
+        cells += [in_seconds(reached[t]["cycles_seconds"]) or "not reached"
                   for t in results["targets"]]
         cells.append(curve_end(scene["cycles"], "samples"))
-        speed_up = times[0.02]["cycles_over_luxel"]
+        speed_up = reached[0.02]["cycles_over_luxel"]
         cells.append(times(speed_up) if speed_up else "-")
         rows.append(cells)
     return table(["scene", "texels/m", "texels", "Luxel 5 %", "Luxel 2 %", "Luxel 1 %",
@@ -673,7 +676,9 @@ def memory_row(results):
     return (f"GPU memory per texel: Solver.gpu_memory_bytes' slope from {count(small['texels'])} "
             f"to {count(large['texels'])} texels",
             f"{slope:.0f} bytes ({large['gpu_memory_mib']:.0f} MiB in all at "
-            f"{count(large['texels'])})", f"{slope / 62:.2f}x the 62-byte target")
+            f"{count(large['texels'])})",
+            f"{slope / BYTES_PER_TEXEL:.2f}x the maps' {BYTES_PER_TEXEL} bytes a page "
+            "texel: pages hold gutters and empty texels too")
 
 
 def levels_row(results):
