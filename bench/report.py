@@ -746,6 +746,17 @@ def device_axes(plt, runs, width=6.0, height=4.2):
     return figure, list(zip(axes[0], runs.values()))
 
 
+def log_axes(axis, *, x_label, y_label, log_x=False, legend_size=7, legend_columns=1):
+    """A log-scaled axis with its labels, grid and legend, as every plot here draws them."""
+    if log_x:
+        axis.set_xscale("log")
+    axis.set_yscale("log", nonpositive="mask")
+    axis.set_xlabel(x_label)
+    axis.set_ylabel(y_label)
+    axis.grid(True, which="both", alpha=0.3)
+    axis.legend(fontsize=legend_size, ncol=legend_columns)
+
+
 def stacked_phases(axis, labels, rows, scale):
     bottom = [0.0] * len(rows)
     for phase in SHOWN_PHASES:
@@ -797,13 +808,10 @@ def plot_table2(plt, runs):
             for projection, marker in markers.items():
                 axis.scatter([], [], color="black", marker=marker,
                              label=PROJECTIONS[projection])
-            axis.set_xscale("log")
-            axis.set_yscale("log", nonpositive="mask")
-            axis.set_xlabel("seconds to the threshold")
-            axis.set_ylabel("relative RMS against the hemicube")
             axis.set_title(f"{short_device(run)}: {name} (type level/size)", fontsize=9)
-            axis.grid(True, which="both", alpha=0.3)
-            axis.legend(fontsize=6, ncol=2)
+            log_axes(axis, x_label="seconds to the threshold",
+                     y_label="relative RMS against the hemicube", log_x=True, legend_size=6,
+                     legend_columns=2)
     return figure
 
 
@@ -822,11 +830,7 @@ def plot_figure6(plt, runs):
                             fontsize=9)
     by_level.set_title("Cornell box: per shooting level", fontsize=9)
     for axis in (by_projection, by_level):
-        axis.set_yscale("log")
-        axis.set_xlabel("shots")
-        axis.set_ylabel("unshot fraction of the emitted power")
-        axis.grid(True, which="both", alpha=0.3)
-        axis.legend(fontsize=7)
+        log_axes(axis, x_label="shots", y_label="unshot fraction of the emitted power")
     return figure
 
 
@@ -849,12 +853,8 @@ def plot_equal_error(plt, runs):
     for axis in axes[0]:
         for target in (0.05, 0.02, 0.01):
             axis.axhline(target, color="grey", linewidth=0.6, linestyle=":")
-        axis.set_xscale("log")
-        axis.set_yscale("log")
-        axis.set_xlabel("seconds")
-        axis.set_ylabel("relative RMS against the reference (debiased)")
-        axis.grid(True, which="both", alpha=0.3)
-        axis.legend(fontsize=7)
+        log_axes(axis, x_label="seconds",
+                 y_label="relative RMS against the reference (debiased)", log_x=True)
     return figure
 
 
@@ -875,15 +875,9 @@ def plot_scaling(plt, runs):
         visibility.plot([row["triangles"] for row in rows],
                         [row["visibility_ms_per_shot"] for row in rows], marker="o",
                         linestyle="none", label=short_device(run))
-    times.set_xlabel("texels")
-    times.set_ylabel("seconds to 2 % relative RMS against Cycles")
-    visibility.set_xlabel("triangles")
-    visibility.set_ylabel("visibility ms per shot")
-    for axis in (times, visibility):
-        axis.set_xscale("log")
-        axis.set_yscale("log")
-        axis.grid(True, which="both", alpha=0.3)
-        axis.legend(fontsize=7)
+    log_axes(times, x_label="texels", y_label="seconds to 2 % relative RMS against Cycles",
+             log_x=True)
+    log_axes(visibility, x_label="triangles", y_label="visibility ms per shot", log_x=True)
     return figure
 
 
@@ -894,11 +888,7 @@ def plot_levels(plt, runs):
             trace = row["trace"] + [{"shots": row["shots"], "unshot": row["unshot"]}]
             axis.plot([p["shots"] for p in trace], [p["unshot"] for p in trace],
                       label=f"{row['level']}, {short_device(run)}")
-    axis.set_yscale("log")
-    axis.set_xlabel("shots")
-    axis.set_ylabel("unshot fraction of the emitted power")
-    axis.grid(True, which="both", alpha=0.3)
-    axis.legend(fontsize=7)
+    log_axes(axis, x_label="shots", y_label="unshot fraction of the emitted power")
     return figure
 
 
