@@ -137,7 +137,9 @@ class SnapshotBake:
         self.device = job.solver.ctx.info.get("GL_RENDERER", "unknown")
         self.settings = asdict(job.solver.settings)
 
-    def curve(self, targets, names, reference):
+    def curve(self, targets, names, reference, measure=None):
+        """The error of each snapshot against ``reference``; ``measure`` (the pages by name
+        to a dict) adds its own entries to each point."""
         page_of = {obj.name: int(obj.luxel.image[PAGE_KEY]) for obj in targets}
         points = []
         snapshots = self.snapshots
@@ -146,7 +148,8 @@ class SnapshotBake:
             error = lightmap_error(pages, [reference[name] for name in names])
             points.append({"shots": shots, "seconds": seconds, "rms": error.rms,
                            "rel_rms": error.relative_rms,
-                           "objects": _object_rel_rms(names, pages, reference)})
+                           "objects": _object_rel_rms(names, pages, reference),
+                           **(measure(dict(zip(names, pages))) if measure else {})})
         return points
 
 
@@ -167,9 +170,10 @@ def bake_with_snapshots(context):
 
 
 # ---------------------------------------------------------------------------------- Cycles
-def cycles_curve(context, options, names, reference, seed=1):
+def cycles_curve(context, options, names, reference, seed=1, measure=None):
     """Cycles bakes at 1, 4, 16, ... samples (below the reference's), timed, with another
-    seed than the reference so that their noise is independent."""
+    seed than the reference so that their noise is independent; ``measure`` as in
+    SnapshotBake.curve."""
     points = []
     samples = 1
     while samples * CURVE_SAMPLES_STEP <= options.samples:
@@ -181,7 +185,8 @@ def cycles_curve(context, options, names, reference, seed=1):
         error = lightmap_error(pages, [reference[n] for n in names])
         points.append({"samples": samples, "seconds": seconds, "rms": error.rms,
                        "rel_rms": error.relative_rms,
-                       "objects": _object_rel_rms(names, pages, reference)})
+                       "objects": _object_rel_rms(names, pages, reference),
+                       **(measure(dict(zip(names, pages))) if measure else {})})
         samples *= CURVE_SAMPLES_STEP
     return points
 

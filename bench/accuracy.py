@@ -6,8 +6,9 @@
     python bench/accuracy.py materials          # what Cycles' material bakes cost
     python bench/accuracy.py glossy-furnace     # what a Principled BSDF reflects, both
 
-Errors are measured at the same surface points for both renderers: Cycles bakes into Luxel's
-lightmap UVs, texel for texel (the paper's eq. 1 over the texels both cover). A reference is
+Errors are measured alike for both renderers, two ways: per texel, Cycles baking into Luxel's
+lightmap UVs texel for texel (the paper's eq. 1 over the texels both cover), and at points on
+the surfaces, each lightmap looked up as a renderer filters it (SurfaceMeasure). A reference is
 two Cycles bakes with different seeds, averaged; a quarter of the mean squared difference of
 the two is the average's noise variance, which is taken out of every squared error
 ("debiased"), so that an error measures the distance to the converged answer rather than to
@@ -25,6 +26,11 @@ import common
 from common import Study
 
 TARGETS = (0.05, 0.02, 0.01)
+# The error where a renderer looks the lightmaps up (native/evaluation/surface_error.py): this
+# many points spread by area over the compared objects, each this far inside its triangle's
+# edges (metres), off the chart borders.
+SURFACE_POINTS = 20_000
+SURFACE_INSET = 0.02
 
 
 # ------------------------------------------------------------------------- equal error
@@ -51,21 +57,84 @@ def equal_error(scenes):
         noise, magnitude = noise_and_magnitude(names, first, second)
         # 4 x samples: Cycles' curve runs up to the reference bake's samples.
         options = compare.CompareOptions(directory="", samples=4 * spec["samples"])
-        cycles = debiased(compare.cycles_curve(context, options, names, reference), noise,
-                          magnitude)
-        luxel_curve = debiased(bake.curve(targets, names, reference), noise, magnitude)
+        surface = SurfaceMeasure(bpy, targets, names, first, second)
+        cycles = debiased(compare.cycles_curve(context, options, names, reference,
+                                               measure=surface), noise, magnitude)
+        luxel_curve = debiased(bake.curve(targets, names, reference, measure=surface), noise,
+                               magnitude)
         row = {**spec, "texels": settings.stats.texels, "shots": settings.stats.shots,
                "unshot_percent": settings.stats.unshot,
                "reference_samples": 2 * spec["samples"],
                "reference_seconds": reference_seconds,
                "reference_noise_rel": math.sqrt(noise) / magnitude,
                "luxel": luxel_curve, "cycles": cycles,
-               "times_to": times_to(luxel_curve, cycles)}
+               "times_to": times_to(luxel_curve, cycles),
+               "surface_points": len(surface.points.page), "surface_inset": SURFACE_INSET,
+               "times_to_surface": times_to(luxel_curve, cycles,
+                                            key="surface_rel_rms_debiased")}
         rows.append(row)
         for entry in row["times_to"]:
             print(f"{spec['scene']} {100 * entry['target']:g} %: Luxel "
                   f"{entry['luxel_seconds']}, Cycles {entry['cycles_seconds']}", flush=True)
     return {"targets": TARGETS, "scenes": rows}
+
+
+class SurfaceMeasure:
+    """The error at points on the compared objects' surfaces, each looked up bilinearly in its
+    object's lightmap (its Luxel UV map) as a renderer samples it, against the reference (the
+    average of the bakes ``first`` and ``second``), with the reference's noise at the points
+    (a quarter of their squared difference there) taken out as for the texels."""
+
+    def __init__(self, bpy, targets, names, first, second):
+        from native.evaluation.surface_error import look_up, surface_points
+        objects = {obj.name: obj for obj in targets}
+        corners, texels, pages = [], [], []
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        for index, name in enumerate(names):
+            triangle_corners, uv = world_triangles(objects[name], depsgraph)
+            height, width = first[name].shape[:2]
+            corners.append(triangle_corners)
+            texels.append(uv * (width, height))
+            pages.append(np.full(len(uv), index))
+        self.names, self.look_up = names, look_up
+        self.points = surface_points(np.concatenate(corners), np.concatenate(texels),
+                                     np.concatenate(pages), count=SURFACE_POINTS,
+                                     inset=SURFACE_INSET, seed=5)
+        self.reference = look_up([averaged(first[n], second[n]) for n in names], self.points)
+        halves = look_up([(first[n] - second[n]) / 2.0 for n in names], self.points)
+        self.noise = float(np.mean(np.sum(halves ** 2, axis=1)))
+        self.magnitude = math.sqrt(float(np.mean(np.sum(self.reference ** 2, axis=1))))
+
+    def __call__(self, pages):
+        from native.evaluation.surface_error import surface_error
+        error = surface_error(self.look_up([pages[n] for n in self.names], self.points),
+                              self.reference)
+        debiased_rms = math.sqrt(max(error.rms ** 2 - self.noise, 0.0))
+        return {"surface_rel_rms": error.relative_rms,
+                "surface_rel_rms_debiased": debiased_rms / self.magnitude}
+
+
+def world_triangles(obj, depsgraph):
+    """The object's evaluated triangles in world space (T, 3, 3) and their corners' lightmap
+    UVs (T, 3, 2) from its Luxel UV map."""
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        count = len(mesh.loop_triangles)
+        vertices = np.empty(count * 3, dtype=np.int32)
+        loops = np.empty(count * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("vertices", vertices)
+        mesh.loop_triangles.foreach_get("loops", loops)
+        positions = np.empty(len(mesh.vertices) * 3)
+        mesh.vertices.foreach_get("co", positions)
+        uv = np.empty(len(mesh.loops) * 2)
+        mesh.uv_layers[obj.luxel.uv_map].data.foreach_get("uv", uv)
+    finally:
+        evaluated.to_mesh_clear()
+    matrix = np.array(obj.matrix_world)
+    world = positions.reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+    return world[vertices].reshape(-1, 3, 3), uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
 
 
 def averaged(a, b):
@@ -97,12 +166,12 @@ def debiased(points, noise, magnitude):
     return points
 
 
-def time_to(points, target):
-    """Seconds at which a curve first reaches ``target`` (log-log interpolation between the
-    points around it), or None."""
+def time_to(points, target, key="rel_rms_debiased"):
+    """Seconds at which a curve's ``key`` first reaches ``target`` (log-log interpolation
+    between the points around it), or None."""
     previous = None
     for point in points:
-        error, seconds = point["rel_rms_debiased"], point["seconds"]
+        error, seconds = point[key], point["seconds"]
         if error <= target:
             if previous is None or previous[0] <= 0 or error <= 0:
                 return seconds
@@ -113,10 +182,11 @@ def time_to(points, target):
     return None
 
 
-def times_to(luxel_curve, cycles_curve):
+def times_to(luxel_curve, cycles_curve, key="rel_rms_debiased"):
     rows = []
     for target in TARGETS:
-        luxel_time, cycles_time = time_to(luxel_curve, target), time_to(cycles_curve, target)
+        luxel_time = time_to(luxel_curve, target, key)
+        cycles_time = time_to(cycles_curve, target, key)
         rows.append({"target": target, "luxel_seconds": luxel_time,
                      "cycles_seconds": cycles_time,
                      "cycles_over_luxel": (cycles_time / luxel_time

@@ -266,9 +266,34 @@ def equal_error_lines(results):
         speed_up = reached[0.02]["cycles_over_luxel"]
         cells.append(times(speed_up) if speed_up else "-")
         rows.append(cells)
-    return table(["scene", "texels/m", "texels", "Luxel 5 %", "Luxel 2 %", "Luxel 1 %",
-                  "Luxel at the end", "Cycles 5 %", "Cycles 2 %", "Cycles 1 %",
-                  "Cycles at the end", "2 %: Cycles / Luxel"], rows, "lrrrrrlrrrlr")
+    lines = table(["scene", "texels/m", "texels", "Luxel 5 %", "Luxel 2 %", "Luxel 1 %",
+                   "Luxel at the end", "Cycles 5 %", "Cycles 2 %", "Cycles 1 %",
+                   "Cycles at the end", "2 %: Cycles / Luxel"], rows, "lrrrrrlrrrlr")
+    surface_rows = []
+    for scene in results["scenes"]:
+        if "times_to_surface" not in scene:
+            continue
+        reached = {entry["target"]: entry for entry in scene["times_to_surface"]}
+        cells = [scene["scene"], count(scene["surface_points"])]
+        for who in ("luxel", "cycles"):
+            cells += [in_seconds(reached[t][f"{who}_seconds"]) or "not reached"
+                      for t in results["targets"]]
+            cells.append(percent(scene[who][-1]["surface_rel_rms_debiased"], 1))
+        speed_up = reached[0.02]["cycles_over_luxel"]
+        cells.append(times(speed_up) if speed_up else "-")
+        surface_rows.append(cells)
+    if surface_rows:
+        lines += ["", f"At points on the surfaces, {surface_inset(results)} inside their "
+                  "triangles, each lightmap filtered as a renderer reads it:", ""]
+        lines += table(["scene", "points", "Luxel 5 %", "Luxel 2 %", "Luxel 1 %",
+                        "Luxel at the end", "Cycles 5 %", "Cycles 2 %", "Cycles 1 %",
+                        "Cycles at the end", "2 %: Cycles / Luxel"], surface_rows,
+                       "lrrrrrrrrrr")
+    return lines
+
+
+def surface_inset(results):
+    return f"{100 * results['scenes'][0]['surface_inset']:g} cm"
 
 
 def cornell_defaults_lines(results):
