@@ -557,13 +557,18 @@ def equal_error_row(scene_name, label):
                      None)
         if scene is None:
             return None
-        times = {entry["target"]: entry for entry in scene["times_to"]}
+        # At surface points, as a renderer shows the lightmaps, where the run measured them.
+        at_points = "times_to_surface" in scene
+        key = "surface_rel_rms_debiased" if at_points else "rel_rms_debiased"
+        times = {entry["target"]: entry
+                 for entry in scene["times_to_surface" if at_points else "times_to"]}
         two = times[0.02]
-        what = f"{label}, {scene['density']:g} texels/m: time to 2 % relative RMS against Cycles"
+        what = (f"{label}, {scene['density']:g} texels/m: time to 2 % relative RMS against "
+                f"Cycles{' at surface points' if at_points else ''}")
         luxel = (in_seconds(two["luxel_seconds"]) if two["luxel_seconds"] else
-                 f"not reached ({percent(scene['luxel'][-1]['rel_rms_debiased'], 1)} at the end)")
+                 f"not reached ({percent(scene['luxel'][-1][key], 1)} at the end)")
         cycles = (in_seconds(two["cycles_seconds"]) if two["cycles_seconds"] else
-                  f"not reached ({percent(scene['cycles'][-1]['rel_rms_debiased'], 1)} at "
+                  f"not reached ({percent(scene['cycles'][-1][key], 1)} at "
                   f"{count(scene['cycles'][-1]['samples'])} samples)")
         if two["cycles_over_luxel"]:
             anchor = f"{two['cycles_over_luxel']:.1f}x sooner than Cycles"
