@@ -875,10 +875,15 @@ def plot_equal_error(plt, runs):
             axis = axes[0][names.index(scene["scene"])]
             for who in ("luxel", "cycles"):
                 points = scene[who]
-                axis.plot([p["seconds"] for p in points],
-                          [max(p["rel_rms_debiased"], 1e-4) for p in points], marker=".",
-                          label=f"{'Luxel' if who == 'luxel' else 'Cycles'}, "
-                          f"{short_device(run)}")
+                for key, way, style in (("rel_rms_debiased", "per texel", "-"),
+                                        ("surface_rel_rms_debiased", "at points", "--")):
+                    if key not in points[0]:
+                        continue
+                    axis.plot([p["seconds"] for p in points],
+                              [max(p[key], 1e-4) for p in points], marker=".",
+                              linestyle=style, color="C0" if who == "luxel" else "C1",
+                              label=f"{'Luxel' if who == 'luxel' else 'Cycles'} {way}, "
+                              f"{short_device(run)}")
             axis.set_title(f"{scene['scene']}, {scene['density']:g} texels/m", fontsize=9)
     for axis in axes[0]:
         for target in (0.05, 0.02, 0.01):
