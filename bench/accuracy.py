@@ -24,6 +24,7 @@ import numpy as np
 
 import common
 from common import Study
+from native.evaluation.surface_error import look_up, surface_error, surface_points  # noqa: E402
 
 TARGETS = (0.05, 0.02, 0.01)
 # The error where a renderer looks the lightmaps up (native/evaluation/surface_error.py): this
@@ -86,7 +87,6 @@ class SurfaceMeasure:
     (a quarter of their squared difference there) taken out as for the texels."""
 
     def __init__(self, bpy, targets, names, first, second):
-        from native.evaluation.surface_error import look_up, surface_points
         objects = {obj.name: obj for obj in targets}
         corners, texels, pages = [], [], []
         depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -96,7 +96,7 @@ class SurfaceMeasure:
             corners.append(triangle_corners)
             texels.append(uv * (width, height))
             pages.append(np.full(len(uv), index))
-        self.names, self.look_up = names, look_up
+        self.names = names
         self.points = surface_points(np.concatenate(corners), np.concatenate(texels),
                                      np.concatenate(pages), count=SURFACE_POINTS,
                                      inset=SURFACE_INSET, seed=5)
@@ -106,8 +106,7 @@ class SurfaceMeasure:
         self.magnitude = math.sqrt(float(np.mean(np.sum(self.reference ** 2, axis=1))))
 
     def __call__(self, pages):
-        from native.evaluation.surface_error import surface_error
-        error = surface_error(self.look_up([pages[n] for n in self.names], self.points),
+        error = surface_error(look_up([pages[n] for n in self.names], self.points),
                               self.reference)
         debiased_rms = math.sqrt(max(error.rms ** 2 - self.noise, 0.0))
         return {"surface_rel_rms": error.relative_rms,
