@@ -33,6 +33,9 @@ BOX_CORNERS = np.array([(0, 1), (2, 1), (2, 3), (0, 1), (2, 3), (0, 3)])
 # Per vertex: the corner (x, y) and the bits of the shooters the tile receives.
 BOX_LAYOUT = (("in_corner", 2), ("in_shooters", 1))
 BOX_VERTEX_BYTES = 3 * 4
+# A receiver this many times as coarse as its shooter (their sides), near it, gathers over
+# its square, not at its sample point (receive_patch.frag, square_form_factor()).
+COARSER = 1.5
 # A pass's texels may receive this share more than its shooters sent: the form factors at
 # their sample points err both ways, and cancel over shots in a closed room (deliver.frag).
 RECEIVED_SURPLUS = 0.05
@@ -47,7 +50,8 @@ class ReceiverTiles:
     page, its texel box, its texels' world bounds grown by their largest side (subdivided
     texels gather off their sample points, in their tangent plane: a flat tile's bounds grow
     along its plane only), and, for a flat tile, its normal, the least of n . p over its
-    texels, and how far its texels' normals stray from n (0 normal: not flat)."""
+    texels, how far its texels' normals stray from n (0 normal: not flat), and its largest
+    texel's side (the root of the area it covers)."""
     page: np.ndarray            # (T,)
     boxes: np.ndarray           # (T, 4) x0, y0, x1, y1 in texels
     low: np.ndarray             # (T, 3)
@@ -55,6 +59,7 @@ class ReceiverTiles:
     normal: np.ndarray          # (T, 3)
     nearest_plane: np.ndarray   # (T,)
     normal_deviation: np.ndarray  # (T,)
+    largest_side: np.ndarray    # (T,)
     vbo: object                 # the boxes drawn for a pass, BOX_CORNERS each (BOX_LAYOUT)
     power_vbo: object           # and a point each (POWER_LAYOUT)
     vaos: dict                  # per receiver program
@@ -66,22 +71,24 @@ class ReceiverTiles:
 
 def create_tiles(state):
     """The tiles of every page that hold texels, from the pages' maps."""
-    columns = [[] for _ in range(7)]
+    columns = [[] for _ in range(8)]
     for index, page in enumerate(state.pages):
         for column, values in zip(columns, _page_tiles(index, page)):
             column.append(values)
-    page, boxes, low, high, normal, nearest, deviation = (np.concatenate(c) for c in columns)
+    page, boxes, low, high, normal, nearest, deviation, side = (np.concatenate(c)
+                                                                for c in columns)
     gl, programs = state.gl, state.programs
     vbo = gl.buffer(reserve=max(len(page), 1) * len(BOX_CORNERS) * BOX_VERTEX_BYTES)
     power_vbo = gl.buffer(reserve=max(len(page), 1) * POWER_VERTEX_BYTES)
     vaos = {kind: gl.vertex_array(programs[kind],
                                   [buffer_content(programs[kind], vbo, BOX_LAYOUT)])
-            for kind in ("patch", "light", "deliver")}
+            for kind in ("patch", "patch_squares", "light", "deliver")}
     vaos["gathered_power"] = gl.vertex_array(programs["gathered_power"], [buffer_content(
         programs["gathered_power"], power_vbo, POWER_LAYOUT)])
     totals = {name: gl.texture((1, 1), 4) for name in TOTAL_UNITS}
     return ReceiverTiles(page=page, boxes=boxes, low=low, high=high, normal=normal,
-                         nearest_plane=nearest, normal_deviation=deviation, vbo=vbo,
+                         nearest_plane=nearest, normal_deviation=deviation,
+                         largest_side=side, vbo=vbo,
                          power_vbo=power_vbo, vaos=vaos, totals=totals,
                          totals_framebuffer=gl.framebuffer(list(totals.values())))
 
@@ -123,7 +130,7 @@ def _page_tiles(index, page):
                      axis=1)
     return (np.full(len(tile), index), boxes, np.nanmin(points, axis=1) - reach,
             np.nanmax(points, axis=1) + reach, np.where(flat[:, None], mean, 0.0),
-            np.nanmin(np.einsum("tkc,tc->tk", points, mean), axis=1), deviation)
+            np.nanmin(np.einsum("tkc,tc->tk", points, mean), axis=1), deviation, side)
 
 
 def receiving_tiles(tiles, shooter, epsilon):
@@ -158,11 +165,15 @@ def take_unshot(state, shooter):
         power[where[emitting[where] == flat]] = 0.0
 
 
-def set_patch_uniforms(state, shooters, views):
+def set_patch_uniforms(state, shooters, views, kinds):
     """The batch's shooters, in the order of their visibility maps' layers, and the views
     those were drawn from (the same but for the eye: every map is a hemicube's, or the batch
-    is one shooter's)."""
-    program = state.programs["patch"]
+    is one shooter's), into the programs ``kinds``."""
+    for kind in kinds:
+        _set_patch_uniforms(state, state.programs[kind], shooters, views)
+
+
+def _set_patch_uniforms(state, program, shooters, views):
     views[0].set_uniforms(program, state)
     set_uniform(program, "u_shooter_count", len(shooters))
     _set_array(program, "u_quads", [tuple(corner) for shooter in shooters
@@ -239,6 +250,18 @@ def receiving_shooters(tiles, shooters, epsilon):
     return bits
 
 
+def square_tiles(tiles, shooters, receiving):
+    """(T,) which tiles hold a texel COARSER times as coarse as a shooter they receive
+    (``receiving``: receiving_shooters), which gathers over its square."""
+    squares = np.zeros(len(tiles.page), dtype=bool)
+    for index, shooter in enumerate(shooters):
+        quad = np.asarray(shooter.quad)
+        side = 0.5 * (np.linalg.norm(quad[1] - quad[0]) + np.linalg.norm(quad[3] - quad[0]))
+        squares |= ((receiving >> index) & 1).astype(bool) & (tiles.largest_side
+                                                              > COARSER * side)
+    return squares
+
+
 def unshot_limit(energy, sent):
     """The most unshot power a shot that sent ``sent`` (W, RGB) may add: its power times the
     largest reflectance and the receivers' surplus, at most its power, so that the unshot
@@ -247,19 +270,22 @@ def unshot_limit(energy, sent):
     return np.asarray(sent, dtype=np.float64) * share
 
 
-def update(state, visibility, kind, sent, unshot_left, shooters=None):
+def update(state, visibility, kind, sent, unshot_left, shooters=None, squares=None):
     """The receivers take the pass's light (program ``kind``: "patch", the batch whose
     uniforms set_patch_uniforms set, or "light"), which sent ``sent`` (W, RGB), and may add
     ``unshot_left`` (W, RGB) to the unshot power: the tiles ``shooters`` gives bits of
-    (receiving_shooters), or all of them from the one light. Three passes over those tiles:
-    each texel gathers; the power their light brings is summed on the GPU; each adds its
-    light, scaled where they took more than was sent or would add more unshot power than is
-    left (deliver.frag)."""
+    (receiving_shooters), or all of them from the one light; the tiles ``squares`` marks
+    (square_tiles) gather with "patch_squares". Three passes over those tiles: each texel
+    gathers; the power their light brings is summed on the GPU; each adds its light,
+    scaled where they took more than was sent or would add more unshot power than is left
+    (deliver.frag)."""
     tiles = state.receiver_tiles
     if shooters is None:
         shooters = np.ones(len(tiles.page), dtype=np.int64)
+    if squares is None:
+        squares = np.zeros(len(tiles.page), dtype=bool)
     chosen = np.flatnonzero(shooters)
-    chosen = chosen[np.argsort(tiles.page[chosen], kind="stable")]
+    chosen = chosen[np.lexsort((squares[chosen], tiles.page[chosen]))]
     if not len(chosen):
         return
     vertices = np.empty((len(chosen), len(BOX_CORNERS), 3), dtype=np.float32)
@@ -279,7 +305,10 @@ def update(state, visibility, kind, sent, unshot_left, shooters=None):
     for page, start, end in runs:
         page.gather.use()
         page.use_maps("position", "normal", "material", "level")
-        draw_tiles(tiles.vaos[kind], start, end)
+        split = start + int(np.count_nonzero(~squares[chosen[start:end]]))
+        draw_tiles(tiles.vaos[kind], start, split)
+        if split < end:
+            draw_tiles(tiles.vaos[f"{kind}_squares"], split, end)
     with render_state(state.ctx, blend=moderngl.FUNC_ADD):
         tiles.totals_framebuffer.clear(0.0, 0.0, 0.0, 0.0)
         tiles.totals_framebuffer.use()

@@ -101,7 +101,8 @@ def pieces(scene, settings, ctx, gl):
     yield _preprocessing(0)
 
     preprocess.create_gpu_state(state)   # programs, albedo textures, pages
-    thin_gaps.set_constant_uniforms(state.programs["patch"])
+    for kind in ("patch", "patch_squares"):
+        thin_gaps.set_constant_uniforms(state.programs[kind])
     yield _preprocessing(1)
 
     raster = preprocess.rasterize(state)

@@ -396,11 +396,13 @@ class Solver:
                 unshot_left = unshot_left - self._timed(
                     "receivers", thin_gaps.close, state, bake.gaps, shooter,
                     receivers.unshot_limit(energy, power))
-        receivers.set_patch_uniforms(state, batch, views)
         receiving = receivers.receiving_shooters(state.receiver_tiles, batch,
                                                  state.bounds.epsilon)
+        squares = receivers.square_tiles(state.receiver_tiles, batch, receiving)
+        receivers.set_patch_uniforms(state, batch, views, kinds=("patch", "patch_squares")
+                                     if squares.any() else ("patch",))
         self._timed("receivers", receivers.update, state, bake.visibility, "patch",
-                    sum(powers), np.maximum(unshot_left, 0.0), receiving)
+                    sum(powers), np.maximum(unshot_left, 0.0), receiving, squares)
 
     def _shoot_light(self, light):
         bake = self._bake

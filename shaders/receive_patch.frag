@@ -176,8 +176,42 @@ vec3 lobe_factor(int cell, vec3 travel) {
 #endif
 }
 
+// Beyond this many quad diagonals of a shooter's centre, a receiver whose horizon the quad
+// lies wholly above takes each cell's light from the cell's middle (point_form_factor()):
+// there it is within 1.4 % of Lambert's formula for the cell, and the formula's polygon
+// clipping, most of a receiver's time on llvmpipe, is spent only nearer.
+const float POINT_REACH = 4.0;
+
+// The shooter's radiance times the form factor towards 'p' as the sum of its cells'
+// point-to-point form factors from their middles, each at its own radiance and lobe.
+vec3 point_form_factor(vec3 p, vec3 n, int cells) {
+    const int CELLS = SHOOTER_CELLS * SHOOTER_CELLS;
+    float cell_area = 0.5 * length(cross(shot_quad[2] - shot_quad[0],
+                                         shot_quad[3] - shot_quad[1])) / float(CELLS);
+    vec3 sum = vec3(0.0);
+    for (int k = 0; k < cells; ++k) {
+        vec2 middle = (vec2(k % SHOOTER_CELLS, k / SHOOTER_CELLS) + 0.5) / float(SHOOTER_CELLS);
+        vec3 travel = p - quad_point(middle.x, middle.y);
+        float squared = dot(travel, travel);
+        float form_factor = max(dot(travel, u_frame[2]), 0.0) * max(-dot(travel, n), 0.0)
+            * cell_area / (PI * squared * squared);
+        sum += u_cell_radiances[shooter * CELLS + k]
+            * lobe_factor(k, travel * inversesqrt(squared)) * form_factor;
+    }
+    return sum;
+}
+
+// Whether the whole quad lies above the horizon of a receiver at 'p' facing 'n'.
+bool quad_above_horizon(vec3 p, vec3 n) {
+    for (int i = 0; i < 4; ++i) {
+        if (dot(shot_quad[i] - p, n) <= 0.0) return false;
+    }
+    return true;
+}
+
 // The shooter's radiance times the form factor and its lobe's factor towards 'p', summed
-// over its cells, each at its own radiance and with its own lobe. Near the shooter each part
+// over its cells, each at its own radiance and with its own lobe. Far off, from the cells'
+// middles (point_form_factor()). Near the shooter each part
 // of a cell takes its own form factor and radiance, and the cell's lobe along the way the
 // part's light travels to p: a hot spot in the block's middle lights what faces it more
 // than the block's mean would, and a wall standing on a glossy floor gets most of its light
@@ -187,10 +221,13 @@ vec3 lobe_factor(int cell, vec3 travel) {
 vec3 radiance_form_factor(vec3 p, vec3 n) {
     const int CELLS = SHOOTER_CELLS * SHOOTER_CELLS;
     const int PARTS = SHOOTER_CELLS * CELL_PARTS;   // along each side of the quad
-    bool near = distance(p, shot_centre) < CELL_REACH * length(shot_quad[2] - shot_quad[0]);
-    int polygons = near ? PARTS * PARTS : 1;
+    float diagonal = length(shot_quad[2] - shot_quad[0]);
+    float from_centre = distance(p, shot_centre);
+    bool far = from_centre > POINT_REACH * diagonal && quad_above_horizon(p, n);
+    vec3 sum = point_form_factor(p, n, far ? CELLS : 0);
+    bool near = from_centre < CELL_REACH * diagonal;
+    int polygons = far ? 0 : near ? PARTS * PARTS : 1;
     float side = near ? 1.0 / float(PARTS) : 1.0;   // in the quad's parameters
-    vec3 sum = vec3(0.0);
     for (int j = 0; j < polygons; ++j) {
         ivec2 at = ivec2(j % PARTS, j / PARTS);
         vec2 low = vec2(at) * side;
@@ -239,10 +276,11 @@ vec3 radiance_form_factor(vec3 p, vec3 n) {
     return sum;
 }
 
-// A receiver COARSER times as coarse as its shooter, within SQUARE_REACH of its sides of it
-// (beyond the shooter's half diagonal), takes the shooter's view of its square
-// (receiver_form_factor()).
-const float COARSER = 1.5;
+#if SQUARE_RECEIVERS
+// A receiver COARSER times as coarse as its shooter (receivers.COARSER), within SQUARE_REACH
+// of its sides of it (beyond the shooter's half diagonal), takes the shooter's view of its
+// square (receiver_form_factor()). Only the tiles that hold such receivers are drawn with
+// this variant: on llvmpipe its code cost every texel a fifth more, taken or not.
 const float SQUARE_REACH = 4.0;
 
 // What the shooter's parts send into the receiver's square of side 'side' around 'p' (normal
@@ -279,6 +317,7 @@ vec3 square_form_factor(vec3 p, vec3 n, float side) {
                                             shot_quad[3] - shot_quad[1]));
     return sum * (shooter_area / float(PARTS * PARTS)) / (side * side);
 }
+#endif
 
 // The shooter's radiance times the form factor towards the receiver at 'p', whose sample
 // point stands for a square of side 'side': the form factor at the sample point
@@ -288,11 +327,15 @@ vec3 square_form_factor(vec3 p, vec3 n, float side) {
 // metre from their sample points by a tenth of what it sent them, and a 5 cm ledge's light
 // the texels beside it by a third more.
 vec3 receiver_form_factor(vec3 p, vec3 n, float side) {
+#if SQUARE_RECEIVERS
     float shooter_side = 0.5 * (length(shot_quad[1] - shot_quad[0])
                                 + length(shot_quad[3] - shot_quad[0]));
     bool coarse = side > COARSER * shooter_side && distance(p, shot_centre)
         < SQUARE_REACH * side + 0.5 * length(shot_quad[2] - shot_quad[0]);
     return coarse ? square_form_factor(p, n, side) : radiance_form_factor(p, n);
+#else
+    return radiance_form_factor(p, n);
+#endif
 }
 
 vec3 travel_direction(vec3 point) { return normalize(point - shot_centre); }
