@@ -24,6 +24,11 @@ AUTOMATIC_PATCHES = 1024
 # The adaptive shooting level coarsens a shot by one level (4x the texels) for every 4x less
 # power than the strongest patch shot had, by at most this many levels.
 MAX_COARSER_LEVELS = 2
+# A strong block shoots as parts at most this many levels finer than the patch level (a
+# sixteenth of a patch, whose side follows the scene's size, not its texels): the Cornell
+# box's light shot as its 357 single texels at 160 texels per metre where 60 texels per metre
+# make its 48 texels a patch's quarter each.
+FINEST_PARTS = 2
 # A selection reads back up to this many candidates per shooter it may queue (blocks inside
 # others are dropped later).
 CANDIDATES_PER_SHOOTER = 2
@@ -124,7 +129,8 @@ def block_region(state, energy, queue, candidate, least_finer=0):
     level = state.patch_level
     power = candidate.power
     ratio = power * energy.shooting_blocks / max(energy.emitted_scalar, 1e-30)
-    finer = max(min(level, int(math.log(ratio, 4.0))) if ratio >= 4.0 else 0, least_finer)
+    finer = min(max(min(level, int(math.log(ratio, 4.0))) if ratio >= 4.0 else 0, least_finer),
+                FINEST_PARTS)
     coarser = 0 if finer else _coarser_levels(state.settings, queue, power)
     size = 1 << (level + coarser)
     x, y = candidate.block
