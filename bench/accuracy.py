@@ -641,6 +641,7 @@ STUDIES = (
     Study("equal-error", equal_error, {
         "quick": dict(scenes=[scene_spec("cornell_box", 20.0, 0.05, 16)]),
         "cpu": dict(scenes=[scene_spec("cornell_box", 60.0, 0.002, 1024),
+                            scene_spec("cornell_box", 160.0, 0.002, 1024),
                             scene_spec("living", 8.0, 0.01, 256),
                             scene_spec("office", 4.0, 0.05, 256),
                             scene_spec("temple", 2.0, 0.02, 128)]),

@@ -551,10 +551,12 @@ def row_cells(study, cells, run):
         return None
 
 
-def equal_error_row(scene_name, label):
+def equal_error_row(scene_name, label, density=None):
+    """The summary's row of a scene of the equal-error study (at ``density`` where it is
+    measured at several)."""
     def cells(results):
-        scene = next((entry for entry in results["scenes"] if entry["scene"] == scene_name),
-                     None)
+        scene = next((entry for entry in results["scenes"] if entry["scene"] == scene_name
+                      and density in (None, entry["density"])), None)
         if scene is None:
             return None
         # At surface points, as a renderer shows the lightmaps, where the run measured them.
@@ -732,7 +734,8 @@ def set_up_row(results):
 # (study, the function that makes the row's what, number and ratio to the anchor from its
 # results, or None), at most 15.
 SUMMARY_ROWS = (
-    ("equal-error", equal_error_row("cornell_box", "Cornell box")),
+    ("equal-error", equal_error_row("cornell_box", "Cornell box", density=60.0)),
+    ("equal-error", equal_error_row("cornell_box", "Cornell box", density=160.0)),
     ("equal-error", equal_error_row("office", "Office")),
     ("equal-error", equal_error_row("living", "Living room")),
     ("equal-error", equal_error_row("temple", "Temple")),
@@ -867,12 +870,12 @@ def plot_figure6(plt, runs):
 def plot_equal_error(plt, runs):
     names = []
     for run in runs.values():
-        names += [scene["scene"] for scene in run["results"]["scenes"]
-                  if scene["scene"] not in names]
+        names += [(scene["scene"], scene["density"]) for scene in run["results"]["scenes"]
+                  if (scene["scene"], scene["density"]) not in names]
     figure, axes = plt.subplots(1, len(names), figsize=(5.0 * len(names), 4.2), squeeze=False)
     for run in runs.values():
         for scene in run["results"]["scenes"]:
-            axis = axes[0][names.index(scene["scene"])]
+            axis = axes[0][names.index((scene["scene"], scene["density"]))]
             for who in ("luxel", "cycles"):
                 points = scene[who]
                 for key, way, style in (("rel_rms_debiased", "per texel", "-"),
