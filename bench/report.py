@@ -274,7 +274,7 @@ def equal_error_lines(results):
         if "times_to_surface" not in scene:
             continue
         reached = {entry["target"]: entry for entry in scene["times_to_surface"]}
-        cells = [scene["scene"], count(scene["surface_points"])]
+        cells = [scene["scene"], f"{scene['density']:g}", count(scene["surface_points"])]
         for who in ("luxel", "cycles"):
             cells += [in_seconds(reached[t][f"{who}_seconds"]) or "not reached"
                       for t in results["targets"]]
@@ -285,10 +285,10 @@ def equal_error_lines(results):
     if surface_rows:
         lines += ["", f"At points on the surfaces, {surface_inset(results)} inside their "
                   "triangles, each lightmap filtered as a renderer reads it:", ""]
-        lines += table(["scene", "points", "Luxel 5 %", "Luxel 2 %", "Luxel 1 %",
+        lines += table(["scene", "texels/m", "points", "Luxel 5 %", "Luxel 2 %", "Luxel 1 %",
                         "Luxel at the end", "Cycles 5 %", "Cycles 2 %", "Cycles 1 %",
                         "Cycles at the end", "2 %: Cycles / Luxel"], surface_rows,
-                       "lrrrrrrrrrr")
+                       "lrrrrrrrrrrr")
     return lines
 
 
