@@ -11,7 +11,7 @@ from . import buried
 from .errors import SettingsError
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
-from .receivers import COARSER
+from .receivers import COARSER, PATCH_PROGRAMS
 from .shooters import SHOOTER_CELLS
 from .state import (BEND_STEPS, MAP_UNITS, TOTAL_UNITS, Bounds, Energy, Page, decode_normals,
                     read_map)
@@ -135,8 +135,8 @@ def create_programs(gl, settings, *, per_face, receiver_batch, glossy_lobes):
     receiver pass gathers (a batch of one compiles to a pass without the loop over them,
     which on llvmpipe cost a shot's pass about a third more); ``glossy_lobes``: the
     receivers keep incoming directions and patches shoot lobes (lobes.py). Patches gather
-    with "patch", or "patch_squares" on the tiles that hold texels coarser than a shooter
-    (receivers.square_tiles)."""
+    with receivers.PATCH_PROGRAMS: the squares' program on the tiles that hold texels
+    coarser than a shooter (receivers.square_tiles)."""
     lobes = {"GLOSSY_LOBES": int(glossy_lobes)}
     programs = {
         "attributes": gl.program("raster.vert", "raster_attributes.frag", "raster.geom"),
@@ -158,7 +158,7 @@ def create_programs(gl, settings, *, per_face, receiver_batch, glossy_lobes):
                                      "SHOOTER_CELLS": SHOOTER_CELLS,
                                      "SQUARE_RECEIVERS": int(squares),
                                      "COARSER": repr(float(COARSER)), **lobes})
-           for name, squares in (("patch", False), ("patch_squares", True))},
+           for squares, name in PATCH_PROGRAMS.items()},
         "light": gl.program("receiver_boxes.vert", "receive_light.frag", defines=lobes),
         "gathered_power": gl.program("gathered_power.vert", "gathered_power.frag"),
         "deliver": gl.program("receiver_boxes.vert", "deliver.frag", defines=lobes),
@@ -205,8 +205,7 @@ def set_constant_uniforms(state):
         "nonlinear": {"u_resolution": float(state.map_size)},
         "hemisphere": {"u_resolution": float(state.map_size)},
         "hemisphere_tessellated": {"u_resolution": float(state.map_size)},
-        "patch": receivers,
-        "patch_squares": receivers,
+        **{name: receivers for name in PATCH_PROGRAMS.values()},
         "light": receivers,
         "take": {"u_atlas_size": size},
         "gathered_power": {f"u_{name}": MAP_UNITS[name]

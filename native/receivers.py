@@ -36,6 +36,9 @@ BOX_VERTEX_BYTES = 3 * 4
 # A receiver this many times as coarse as its shooter (their sides), near it, gathers over
 # its square, not at its sample point (receive_patch.frag, square_form_factor()).
 COARSER = 1.5
+# The patch receivers' programs by whether they gather over coarse texels' squares
+# (receive_patch.frag's SQUARE_RECEIVERS): those are drawn only on square_tiles.
+PATCH_PROGRAMS = {False: "patch", True: "patch_squares"}
 # A pass's texels may receive this share more than its shooters sent: the form factors at
 # their sample points err both ways, and cancel over shots in a closed room (deliver.frag).
 RECEIVED_SURPLUS = 0.05
@@ -82,7 +85,7 @@ def create_tiles(state):
     power_vbo = gl.buffer(reserve=max(len(page), 1) * POWER_VERTEX_BYTES)
     vaos = {kind: gl.vertex_array(programs[kind],
                                   [buffer_content(programs[kind], vbo, BOX_LAYOUT)])
-            for kind in ("patch", "patch_squares", "light", "deliver")}
+            for kind in (*PATCH_PROGRAMS.values(), "light", "deliver")}
     vaos["gathered_power"] = gl.vertex_array(programs["gathered_power"], [buffer_content(
         programs["gathered_power"], power_vbo, POWER_LAYOUT)])
     totals = {name: gl.texture((1, 1), 4) for name in TOTAL_UNITS}
@@ -271,11 +274,12 @@ def unshot_limit(energy, sent):
 
 
 def update(state, visibility, kind, sent, unshot_left, shooters=None, squares=None):
-    """The receivers take the pass's light (program ``kind``: "patch", the batch whose
-    uniforms set_patch_uniforms set, or "light"), which sent ``sent`` (W, RGB), and may add
+    """The receivers take the pass's light (program ``kind``: PATCH_PROGRAMS[False], the
+    batch whose uniforms set_patch_uniforms set, or "light"), which sent ``sent`` (W, RGB),
+    and may add
     ``unshot_left`` (W, RGB) to the unshot power: the tiles ``shooters`` gives bits of
     (receiving_shooters), or all of them from the one light; the tiles ``squares`` marks
-    (square_tiles) gather with "patch_squares". Three passes over those tiles: each texel
+    (square_tiles) gather with PATCH_PROGRAMS[True]. Three passes over those tiles: each texel
     gathers; the power their light brings is summed on the GPU; each adds its light,
     scaled where they took more than was sent or would add more unshot power than is left
     (deliver.frag)."""
@@ -308,7 +312,7 @@ def update(state, visibility, kind, sent, unshot_left, shooters=None, squares=No
         split = start + int(np.count_nonzero(~squares[chosen[start:end]]))
         draw_tiles(tiles.vaos[kind], start, split)
         if split < end:
-            draw_tiles(tiles.vaos[f"{kind}_squares"], split, end)
+            draw_tiles(tiles.vaos[PATCH_PROGRAMS[True]], split, end)
     with render_state(state.ctx, blend=moderngl.FUNC_ADD):
         tiles.totals_framebuffer.clear(0.0, 0.0, 0.0, 0.0)
         tiles.totals_framebuffer.use()

@@ -101,7 +101,7 @@ def pieces(scene, settings, ctx, gl):
     yield _preprocessing(0)
 
     preprocess.create_gpu_state(state)   # programs, albedo textures, pages
-    for kind in ("patch", "patch_squares"):
+    for kind in receivers.PATCH_PROGRAMS.values():
         thin_gaps.set_constant_uniforms(state.programs[kind])
     yield _preprocessing(1)
 

@@ -399,9 +399,10 @@ class Solver:
         receiving = receivers.receiving_shooters(state.receiver_tiles, batch,
                                                  state.bounds.epsilon)
         squares = receivers.square_tiles(state.receiver_tiles, batch, receiving)
-        receivers.set_patch_uniforms(state, batch, views, kinds=("patch", "patch_squares")
-                                     if squares.any() else ("patch",))
-        self._timed("receivers", receivers.update, state, bake.visibility, "patch",
+        programs = receivers.PATCH_PROGRAMS
+        receivers.set_patch_uniforms(state, batch, views, kinds=[
+            programs[False], *([programs[True]] if squares.any() else [])])
+        self._timed("receivers", receivers.update, state, bake.visibility, programs[False],
                     sum(powers), np.maximum(unshot_left, 0.0), receiving, squares)
 
     def _shoot_light(self, light):
