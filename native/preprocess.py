@@ -12,6 +12,7 @@ from .errors import SettingsError
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
 from .receivers import COARSER, PATCH_PROGRAMS
+from .visibility import DRAWN_DISTANCE
 from .shooters import SHOOTER_CELLS
 from .state import (BEND_STEPS, MAP_UNITS, TOTAL_UNITS, Bounds, Energy, Page, decode_normals,
                     read_map)
@@ -159,8 +160,10 @@ def create_programs(gl, settings, *, per_face, receiver_batch, glossy_lobes):
                                      "SQUARE_RECEIVERS": int(squares),
                                      "COARSER": repr(float(COARSER)), **lobes})
            for squares, name in PATCH_PROGRAMS.items()},
-        "light": gl.program("receiver_boxes.vert", "receive_light.frag", defines=lobes),
+        "light": gl.program("receiver_boxes.vert", "receive_light.frag",
+                            defines={"MOST_SHOOTERS": receiver_batch, **lobes}),
         "gathered_power": gl.program("gathered_power.vert", "gathered_power.frag"),
+        "covered": gl.program("covered_share.vert", "covered_share.frag"),
         "deliver": gl.program("receiver_boxes.vert", "deliver.frag", defines=lobes),
         "take": gl.program("take_unshot.vert", "take_unshot.frag"),
     }
@@ -202,6 +205,8 @@ def set_constant_uniforms(state):
         "block": {"u_block": 1 << state.patch_level, "u_position": 0, "u_unshot": 1},
         "argmax": {"u_source": 0},
         "visibility": {"u_ortho_half": bounds.radius},
+        "covered": {"u_visibility": 0, "u_drawn": DRAWN_DISTANCE,
+                    "u_pixels": state.receiver_batch},
         "nonlinear": {"u_resolution": float(state.map_size)},
         "hemisphere": {"u_resolution": float(state.map_size)},
         "hemisphere_tessellated": {"u_resolution": float(state.map_size)},

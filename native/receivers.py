@@ -3,8 +3,9 @@ visibility map (receive_patch.frag for a patch, receive_light.frag for a point, 
 light) into its page's gathered maps; then the power that light brings is summed, and each
 texel adds its light to its irradiance and unshot maps, all scaled down alike where the
 texels took more than the shot sent (deliver.frag). A patch first takes what it shoots
-from its texels. Patches shoot in batches (memory.receiver_batch): one pass over the texels
-gathers every shooter of the batch, each against its own visibility map. The pass draws
+from its texels. Patches shoot in batches (memory.receiver_batch), and so do suns (the sky's
+many): one pass over the texels gathers every shooter of the batch, each against its own
+visibility map. The pass draws
 only the tiles of texels that can receive a shooter (not those behind its plane, nor flat
 ones facing away from it), and a tile gathers only from the shooters it can receive. The
 lights' views, uniforms and power, and the sky as suns."""
@@ -222,20 +223,28 @@ def light_view(light, bounds):
                 orthographic=False)
 
 
-def set_light_uniforms(state, light):
+def set_light_uniforms(state, lights, views):
+    """A pass's lights (suns, or a point or spot light alone), in the order of their
+    visibility maps' layers, and the views those were drawn from."""
     program = state.programs["light"]
-    if isinstance(light, SunLight):
+    views[0].set_uniforms(program, state)
+    set_uniform(program, "u_light_count", len(lights))
+    _set_array(program, "u_eyes", [tuple(view.eye) for view in views])
+    _set_array(program, "u_frames", [tuple(np.asarray(view.frame, dtype=np.float64).T.ravel())
+                                      for view in views])
+    first = lights[0]
+    if isinstance(first, SunLight):
         set_uniform(program, "u_light_kind", SUN_LIGHT)
-        set_uniform(program, "u_light_value", tuple(light.irradiance()))
+        _set_array(program, "u_light_values", [tuple(light.irradiance()) for light in lights])
         return
     set_uniform(program, "u_light_kind", POINT_LIGHT)
-    set_uniform(program, "u_light_value", tuple(light.intensity()))
-    if isinstance(light, SpotLight):
-        axis = np.asarray(light.direction, dtype=np.float64)
+    _set_array(program, "u_light_values", [tuple(first.intensity())])
+    if isinstance(first, SpotLight):
+        axis = np.asarray(first.direction, dtype=np.float64)
         set_uniform(program, "u_light_kind", SPOT_LIGHT)
         set_uniform(program, "u_spot_axis", tuple(axis / np.linalg.norm(axis)))
-        set_uniform(program, "u_spot_cos_half", light.cos_half_angle())
-        set_uniform(program, "u_spot_smooth", light.smooth_width())
+        set_uniform(program, "u_spot_cos_half", first.cos_half_angle())
+        set_uniform(program, "u_spot_smooth", first.smooth_width())
 
 
 def light_power(light, radius):

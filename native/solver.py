@@ -2,7 +2,7 @@
 evaluation paper), in lightmap space, with the hemicube for visibility.
 
     solver = Solver(scene, Settings(texel_density=40))   # create: atlas, preprocess
-    while solver.step():                                 # a light, or a batch of patches
+    while solver.step():                                 # a light, or a batch of suns or patches
         print(solver.progress)                           # shots, unshot fraction, seconds
     pages = solver.result()                              # current lightmaps, any time
     solver.release()                                     # every GL object, in one place
@@ -31,6 +31,7 @@ from . import (postprocess, receivers, selection, set_up, shooters, subdivision,
 from .gpu import GLObjects, create_context, using
 from .memory import BYTES_PER_TEXEL  # noqa: F401  (the add-on's tests read it here)
 from .postprocess import Ledger  # noqa: F401  (native's API)
+from .scene import SunLight
 from .set_up import SET_UP_STAGES, SetUpProgress
 from .settings import Settings, shot_limit
 from .state import Shooter, View, read_map
@@ -114,9 +115,9 @@ class Solver:
         return self._set_up_pieces is not None
 
     def step(self):
-        """Shoot once: the pending lights first, one at a time, then the texel patches with
-        the most unshot power, a batch of a selection's at a time (memory.receiver_batch;
-        Progress.shots counts each). Returns False, shooting nothing, once converged or out
+        """Shoot once: the pending lights first, a point or spot light alone, suns (the
+        sky's) a batch at a time, then the texel patches with the most unshot power, a batch
+        of a selection's at a time (memory.receiver_batch; Progress.shots counts each). Returns False, shooting nothing, once converged or out
         of shots."""
         if self.finished or self.ctx is None:
             return False
@@ -133,16 +134,18 @@ class Solver:
                 self.finished = True
                 return False
             shot = queue.shots.pop(0)
-            if isinstance(shot, Shooter):
-                batch = [shot]
-                most = min(self._bake.state.receiver_batch, self.shot_limit - self.shots)
-                while len(batch) < most and queue.shots and isinstance(queue.shots[0], Shooter):
+            # Patches shoot in batches, and suns (the sky's many); a point or spot light alone.
+            kind = Shooter if isinstance(shot, Shooter) else SunLight
+            batch = [shot]
+            most = min(self._bake.state.receiver_batch, self.shot_limit - self.shots)
+            if isinstance(shot, kind):
+                while len(batch) < most and queue.shots and isinstance(queue.shots[0], kind):
                     batch.append(queue.shots.pop(0))
+            if kind is Shooter:
                 self._shoot_patches(batch)
-                self.shots += len(batch)
             else:
-                self._shoot_light(shot)
-                self.shots += 1
+                self._shoot_lights(batch)
+            self.shots += len(batch)
         return True
 
     def run(self, callback=None):
@@ -405,21 +408,29 @@ class Solver:
         self._timed("receivers", receivers.update, state, bake.visibility, programs[False],
                     sum(powers), np.maximum(unshot_left, 0.0), receiving, squares)
 
-    def _shoot_light(self, light):
+    def _shoot_lights(self, lights):
+        """Shoot a point or spot light, or a batch of suns: each one's visibility map, then
+        one receiver pass for them all."""
         bake = self._bake
         state, energy = bake.state, bake.energy
-        power = self._light_power(light)
-        view = receivers.light_view(light, state.bounds)
-        receivers.set_light_uniforms(state, light)
-        faces = visibility.SUN_FACES if view.orthographic else visibility.ALL_FACES
-        self._timed("visibility", visibility.render, state, bake.visibility, view,
-                    faces=faces, clip_below=False)
-        if view.orthographic:   # the sun's window: what misses the scene is not left unshot
-            energy.sunlight_missed += float(np.mean(power)) * (
-                1.0 - visibility.covered_share(state, bake.visibility))
-        self._maybe_subdivide(view, float(np.mean(power)), clip_below=False)
+        powers = [self._light_power(light) for light in lights]
+        views = [receivers.light_view(light, state.bounds) for light in lights]
+        if isinstance(lights[0], SunLight):
+            self._timed("visibility", visibility.render_batch, state, bake.visibility, views,
+                        faces=visibility.SUN_FACES, clip_below=False)
+            # The suns' windows: what misses the scene is not left unshot.
+            covered = visibility.covered_shares(state, bake.visibility, len(lights))
+            energy.sunlight_missed += sum(float(np.mean(power)) * (1.0 - share)
+                                          for power, share in zip(powers, covered))
+        else:
+            self._timed("visibility", visibility.render, state, bake.visibility, views[0],
+                        faces=visibility.ALL_FACES, clip_below=False)
+        # Adaptive subdivision shoots one at a time (memory.receiver_batch).
+        for view, power in zip(views, powers):
+            self._maybe_subdivide(view, float(np.mean(power)), clip_below=False)
+        power = sum(powers)
         energy.shot_power = energy.shot_power + power
-        view.set_uniforms(state.programs["light"], state)
+        receivers.set_light_uniforms(state, lights, views)
         self._timed("receivers", receivers.update, state, bake.visibility, "light", power,
                     receivers.unshot_limit(energy, power))
 

@@ -137,6 +137,8 @@ class VisibilityMap:
     caster_vbo: object
     cluster_low: np.ndarray     # (C, 3) bounds of each cluster of occluders (visibility.py)
     cluster_high: np.ndarray
+    covered: object             # a row of a pixel per map of a batch: the texels drawn into
+    covered_framebuffer: object  # its first layer (visibility.covered_shares)
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,9 @@ SUN_FACES = 1
 # DRAWN_DISTANCE holds something.
 CLEAR_DISTANCE = 3.0e38
 DRAWN_DISTANCE = 1e38
+# covered_shares() counts this many map texels per point (llvmpipe ends a loop, nested ones
+# counted together, after 65535 turns).
+COUNTED_TEXELS = 32768
 # A scene without occluders draws one triangle out here, which keeps the buffers valid.
 FAR_AWAY = 1e30
 # Triangles per cluster (consecutive in the vertex buffer, in Morton order of their centres).
@@ -75,6 +78,8 @@ def create(state):
     vaos["hemisphere_tessellated"] = gl.vertex_array(
         programs["hemisphere_tessellated"],
         scene_content + [(caster_vbo, "1f", "in_caster_level")])
+    vaos["covered"] = gl.vertex_array(programs["covered"], [])
+    covered = gl.texture((state.receiver_batch, 1), 4)
     # The occluders' planes keep a shooter on one side of what crosses it (shooters).
     low, high = _cluster_bounds(positions.astype(np.float64))
     pad = CLUSTER_PAD * (float(np.abs(state.bounds.centre).max()) + 4.0 * state.bounds.radius)
@@ -82,7 +87,8 @@ def create(state):
                          triangle_vertices=positions.shape[0] * 3,
                          occluders=TrianglePlanes(positions.astype(np.float64)),
                          caster_levels=caster_levels, caster_vbo=caster_vbo,
-                         cluster_low=low - pad, cluster_high=high + pad)
+                         cluster_low=low - pad, cluster_high=high + pad,
+                         covered=covered, covered_framebuffer=gl.framebuffer([covered]))
 
 
 def _morton_order(points):
@@ -160,13 +166,14 @@ def render(state, visibility, view, *, faces, clip_below):
     _draw(state, visibility, view, faces=faces, clip_below=clip_below, first_layer=0)
 
 
-def render_batch(state, visibility, views):
-    """The hemicubes in front of a batch of shooters' ``views``, each behind its plane
-    clipped, the i-th into the six layers from 6 i (receive_patch.frag). A batch of one may
-    use any projection (render)."""
+def render_batch(state, visibility, views, *, faces=FRONT_FACES, clip_below=True):
+    """A batch's ``views``, the i-th into the layers from 6 i (receive_patch.frag,
+    receive_light.frag): the hemicubes in front of patch shooters, each behind its plane
+    clipped, or suns' windows (SUN_FACES, nothing clipped). A batch of one may use any
+    projection (render)."""
     _clear(visibility)
     for index, view in enumerate(views):
-        _draw(state, visibility, view, faces=FRONT_FACES, clip_below=True,
+        _draw(state, visibility, view, faces=faces, clip_below=clip_below,
               first_layer=ALL_FACES * index)
 
 
@@ -212,11 +219,18 @@ def _draw(state, visibility, view, *, faces, clip_below, first_layer):
                 visibility.vaos[name].render(moderngl.TRIANGLES, first=first, vertices=vertices)
 
 
-def covered_share(state, visibility):
-    """The share of the first visibility map's texels that something was drawn into (the
-    sun's window the scene covers)."""
-    texels = state.map_size ** 2
-    # Reading the layered framebuffer reads its first layer only: a sixth of the texture.
-    distances = np.frombuffer(visibility.framebuffer.read(components=2, dtype="f4"),
-                              dtype="f4")[::2]
-    return float(np.count_nonzero(distances < DRAWN_DISTANCE)) / texels
+def covered_shares(state, visibility, count):
+    """(count,) the share of the texels that something was drawn into, of the first layer
+    of each of the first ``count`` views of a batch (render_batch): the suns' windows the
+    scene covers. Counted on the GPU (covered_share.vert), COUNTED_TEXELS a point: reading
+    the maps back took longer than drawing them."""
+    rows = max(1, COUNTED_TEXELS // state.map_size)
+    bands = -(-state.map_size // rows)
+    set_uniform(state.programs["covered"], "u_rows", rows)
+    visibility.texture.use(location=0)
+    visibility.covered_framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+    visibility.covered_framebuffer.use()
+    with render_state(state.ctx, blend=moderngl.FUNC_ADD):
+        visibility.vaos["covered"].render(moderngl.POINTS, vertices=count * bands)
+    counts = np.frombuffer(visibility.covered.read(), dtype="f4").reshape(-1, 4)[:count, 0]
+    return counts / state.map_size ** 2

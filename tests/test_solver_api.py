@@ -10,7 +10,7 @@ import pytest
 import scenes
 from conftest import ROOT
 from native import PointLight, SetUpProgress, Settings, Solver, SpotLight, SunLight
-from native import preprocess, set_up
+from native import preprocess, receivers, set_up
 from native.samples import SceneBuilder, cornell_box
 
 
@@ -333,6 +333,36 @@ def test_unshot_fraction_counts_the_sunlight_that_lands(ctx, gl_clean, projectio
     # The ledger still counts the whole window as emitted, the miss as escaped.
     assert ledger.imbalance() < 1e-4
     assert ledger.escaped[0] > 0.4 * ledger.emitted[0]
+
+
+@pytest.mark.parametrize("projection", ["HEMICUBE", "NONLINEAR"])
+def test_unshot_fraction_counts_the_skylight_that_lands(ctx, gl_clean, projection):
+    """A uniform sky over a lone plane of albedo rho that receives on its front only: its
+    suns, shot in batches, each miss the plane by their own window's share, so after the
+    sky the unshot fraction is rho times the front's share of the light that landed,
+    sum(cos) over the suns that light the front over sum(|cos|) over all (about a half).
+    Reading the batch's maps from the wrong layers (one apart, not six) read 1.5 rho."""
+    albedo = 0.5
+    builder = SceneBuilder().quad("plane", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)],
+                                  (albedo,) * 3)
+    # A map of 512 x 512: counting its texels in one loop stopped at 65535 on llvmpipe.
+    settings = Settings(texel_density=16, projection=projection, threshold=0.0,
+                        hemicube_resolution=512)
+    solver = Solver(builder.build(sky=(1.0, 1.0, 1.0)), settings, ctx=ctx)
+    try:
+        while solver.progress.shots < settings.sky_directions:
+            solver.step()
+        solver.step()   # measures the unshot power before the plane's first shot
+        fraction = solver.progress.unshot_fraction
+        ledger = solver.ledger()
+    finally:
+        solver.release()
+    assert ctx.error == "GL_NO_ERROR"
+    travel = np.array([sun.direction for sun in
+                       receivers.sky_suns((1.0, 1.0, 1.0), settings.sky_directions)])[:, 2]
+    front_share = -travel[travel < 0].sum() / np.abs(travel).sum()
+    assert abs(fraction - albedo * front_share) < 0.02 * albedo * front_share
+    assert ledger.imbalance() < 1e-4
 
 
 def test_albedo_texture_is_sampled_through_its_uvs(ctx, gl_clean):
