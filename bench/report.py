@@ -732,13 +732,15 @@ def set_up_row(results):
 
 
 # (study, the function that makes the row's what, number and ratio to the anchor from its
-# results, or None), at most 15.
+# results, or None), at most 20.
 SUMMARY_ROWS = (
     ("equal-error", equal_error_row("cornell_box", "Cornell box", density=60.0)),
     ("equal-error", equal_error_row("cornell_box", "Cornell box", density=160.0)),
+    ("equal-error", equal_error_row("cornell_primitives", "Box from primitives", density=60.0)),
+    ("equal-error", equal_error_row("cornell_primitives", "Box from primitives",
+                                    density=160.0)),
     ("equal-error", equal_error_row("office", "Office")),
     ("equal-error", equal_error_row("living", "Living room")),
-    ("equal-error", equal_error_row("temple", "Temple")),
     ("cornell-defaults", cornell_defaults_row),
     ("interior", interior_row("default")),
     ("table1", table1_row),

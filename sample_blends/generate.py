@@ -306,6 +306,45 @@ def build_cornell_box():
     return scene
 
 
+def build_cornell_primitives():
+    """A Cornell box as a user builds one from Blender's primitives, not from the published
+    data: 0.555 m planes for the walls, scaled and turned default cubes standing on the floor
+    for the blocks (closed, their bottoms on the floor), and a plane lamp 0.2 mm under the
+    ceiling, emitting from both faces as Cycles' emission does. The equal-error study
+    measures Luxel against Cycles on it as on a box it was not tuned on."""
+    scene = new_scene()
+    white = diffuse("white", WHITE)
+    red = diffuse("red", (0.63, 0.065, 0.05))
+    green = diffuse("green", (0.14, 0.45, 0.091))
+    lamp = emitter("lamp", (1.0, 12.0 / 17.0, 4.0 / 17.0), 17.0)
+    side = 0.555
+    middle = side / 2.0
+
+    def primitive(add, name, material, location, rotation, scale):
+        add(location=location, rotation=rotation)
+        obj = bpy.context.object
+        obj.name = obj.data.name = name
+        obj.scale = scale
+        obj.data.materials.append(material)
+
+    plane = lambda name, material, location, rotation, width=side, depth=side: primitive(
+        bpy.ops.mesh.primitive_plane_add, name, material, location, rotation, (width, depth, 1.0))
+    # Default planes face +Z: each turned to face into the box.
+    plane("floor", white, (middle, middle, 0.0), (0.0, 0.0, 0.0))
+    plane("ceiling", white, (middle, middle, side), (math.pi, 0.0, 0.0))
+    plane("back_wall", white, (middle, side, middle), (math.pi / 2.0, 0.0, 0.0))
+    plane("red_wall", red, (0.0, middle, middle), (0.0, math.pi / 2.0, 0.0))
+    plane("green_wall", green, (side, middle, middle), (0.0, -math.pi / 2.0, 0.0))
+    plane("lamp", lamp, (middle, middle, side - 0.0002), (math.pi, 0.0, 0.0), 0.13, 0.105)
+    for name, (x, y), height, turn in (("short_block", (0.185, 0.17), 0.165, -17.0),
+                                       ("tall_block", (0.37, 0.35), 0.33, 17.0)):
+        primitive(lambda **place: bpy.ops.mesh.primitive_cube_add(size=1.0, **place), name,
+                  white, (x, y, height / 2.0), (0.0, 0.0, math.radians(turn)),
+                  (0.165, 0.165, height))
+    add_camera(scene, (middle, -1.0, middle), (middle, middle, middle), lens=30.0)
+    return scene
+
+
 def temple_column():
     """Fluted Doric column standing on z = 0: plinth, shaft with entasis, echinus, abacus."""
     shaft = [(0.40, 0.15, 0.12), (0.39, 1.70, 0.12), (0.365, 3.25, 0.12), (0.33, 4.75, 0.12)]
@@ -859,6 +898,7 @@ def build_interior():
 
 SCENES = {
     "cornell_box": build_cornell_box,
+    "cornell_primitives": build_cornell_primitives,
     "temple": build_temple,
     "office": build_office,
     "living": build_living,
