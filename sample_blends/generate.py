@@ -328,7 +328,8 @@ def build_cornell_primitives():
         obj.data.materials.append(material)
 
     plane = lambda name, material, location, rotation, width=side, depth=side: primitive(
-        bpy.ops.mesh.primitive_plane_add, name, material, location, rotation, (width, depth, 1.0))
+        lambda **place: bpy.ops.mesh.primitive_plane_add(size=1.0, **place), name, material,
+        location, rotation, (width, depth, 1.0))
     # Default planes face +Z: each turned to face into the box.
     plane("floor", white, (middle, middle, 0.0), (0.0, 0.0, 0.0))
     plane("ceiling", white, (middle, middle, side), (math.pi, 0.0, 0.0))
