@@ -77,7 +77,8 @@ class ThinGaps:
     receivers show (W: irradiance times area, and its part they absorb, as the maps would
     count it) and what really arrived."""
     receivers: object                               # geometry.TrianglePlanes
-    near_region: dict = field(default_factory=dict)     # Region -> a receiver faces it closely
+    near_region: dict = field(default_factory=dict)     # Region -> which texels a
+                                                        # receiver faces closely
     surface_corners: dict = field(default_factory=dict)  # surface number -> (T, 3, 3)
     receiving_texels: list = None                   # per page, Texels
     page_triangles: list = None                     # per page, PageTriangles
@@ -135,16 +136,30 @@ def near_thin_gap(state, gaps, region, position, normal, texel_size):
     """Whether a receiving triangle faces some texel of the region across a gap under
     twice THIN_GAP of the largest texel (receivers' texels differ a little in size), within
     the near field's reach: a superset of the receivers that receive_patch.frag treats as
-    across a thin gap. Texels do not move, so once per region."""
-    thin = gaps.near_region.get(region)
-    if thin is None:
+    across a thin gap."""
+    return bool(_facing_across_thin_gap(state, gaps, region, position, normal,
+                                        texel_size).any())
+
+
+def all_across_thin_gap(state, gaps, region, position, normal, texel_size):
+    """Whether every texel of the region faces a receiving triangle across a thin gap (as
+    near_thin_gap): all its light lands across the gap (a lamp's back under the ceiling)."""
+    return bool(_facing_across_thin_gap(state, gaps, region, position, normal,
+                                        texel_size).all())
+
+
+def _facing_across_thin_gap(state, gaps, region, position, normal, texel_size):
+    """(N,) per occupied texel of the region whether a receiving triangle's plane faces it
+    across a thin gap (near_thin_gap). Texels do not move, so once per region."""
+    faced = gaps.near_region.get(region)
+    if faced is None:
         occupied = position[:, 3] > 0.0
         points, normals = position[occupied, :3], normal[occupied]
+        faced = np.zeros(len(points), dtype=bool)
         largest = float(texel_size[occupied].max())   # a shooter has its strongest texel
         gap, reach = 2.0 * THIN_GAP * largest, NEAR_REACH * largest
         receivers = gaps.receivers
         near = receivers.within(points.min(axis=0) - reach, points.max(axis=0) + reach)
-        thin = False
         # A coarse block among a finely subdivided mesh has hundreds of texels and
         # hundreds of thousands of triangles near it: a piece of them at a time.
         step = max(1, PAIRS_AT_ONCE // max(len(points), 1))
@@ -154,11 +169,9 @@ def near_thin_gap(state, gaps, region, position, normal, texel_size):
             # How far in front of each texel each plane lies: a sheet's own back face, at 0,
             # gets nothing from its front.
             heights = receivers.normals[part] @ points.T - receivers.offsets[part, None]
-            thin = bool((facing & (heights > state.bounds.epsilon) & (heights < gap)).any())
-            if thin:
-                break
-        gaps.near_region[region] = thin
-    return thin
+            faced |= (facing & (heights > state.bounds.epsilon) & (heights < gap)).any(axis=0)
+        gaps.near_region[region] = faced
+    return faced
 
 
 def close(state, gaps, shooter, unshot_limit):
