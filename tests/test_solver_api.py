@@ -321,13 +321,7 @@ def test_unshot_fraction_counts_the_sunlight_that_lands(ctx, gl_clean, projectio
     sun = SunLight(direction=(math.sin(0.4), 0.0, -math.cos(0.4)), strength=2.0)
     solver = Solver(builder.build([sun]), Settings(texel_density=16, projection=projection,
                                                    threshold=0.0), ctx=ctx)
-    try:
-        solver.step()   # the sun
-        solver.step()   # measures the unshot power before the plane's first shot
-        fraction = solver.progress.unshot_fraction
-        ledger = solver.ledger()
-    finally:
-        solver.release()
+    fraction, ledger = unshot_after_lights(solver, lights=1)
     assert ctx.error == "GL_NO_ERROR"
     assert abs(fraction - albedo) < 0.02 * albedo
     # The ledger still counts the whole window as emitted, the miss as escaped.
@@ -349,20 +343,25 @@ def test_unshot_fraction_counts_the_skylight_that_lands(ctx, gl_clean, projectio
     settings = Settings(texel_density=16, projection=projection, threshold=0.0,
                         hemicube_resolution=512)
     solver = Solver(builder.build(sky=(1.0, 1.0, 1.0)), settings, ctx=ctx)
-    try:
-        while solver.progress.shots < settings.sky_directions:
-            solver.step()
-        solver.step()   # measures the unshot power before the plane's first shot
-        fraction = solver.progress.unshot_fraction
-        ledger = solver.ledger()
-    finally:
-        solver.release()
+    fraction, ledger = unshot_after_lights(solver, lights=settings.sky_directions)
     assert ctx.error == "GL_NO_ERROR"
     travel = np.array([sun.direction for sun in
                        receivers.sky_suns((1.0, 1.0, 1.0), settings.sky_directions)])[:, 2]
     front_share = -travel[travel < 0].sum() / np.abs(travel).sum()
     assert abs(fraction - albedo * front_share) < 0.02 * albedo * front_share
     assert ledger.imbalance() < 1e-4
+
+
+def unshot_after_lights(solver, *, lights):
+    """The unshot fraction and the ledger once the first ``lights`` shots (the lights) are
+    shot, measured before the first patch's shot; the solver released."""
+    try:
+        while solver.progress.shots < lights:
+            solver.step()
+        solver.step()   # measures the unshot power before the first patch's shot
+        return solver.progress.unshot_fraction, solver.ledger()
+    finally:
+        solver.release()
 
 
 def test_albedo_texture_is_sampled_through_its_uvs(ctx, gl_clean):
