@@ -117,8 +117,8 @@ class Solver:
     def step(self):
         """Shoot once: the pending lights first, a point or spot light alone, suns (the
         sky's) a batch at a time, then the texel patches with the most unshot power, a batch
-        of a selection's at a time (memory.receiver_batch; Progress.shots counts each). Returns False, shooting nothing, once converged or out
-        of shots."""
+        of a selection's at a time (memory.receiver_batch; Progress.shots counts each).
+        Returns False, shooting nothing, once converged or out of shots."""
         if self.finished or self.ctx is None:
             return False
         while self.set_up_step():
@@ -135,13 +135,14 @@ class Solver:
                 return False
             shot = queue.shots.pop(0)
             # Patches shoot in batches, and suns (the sky's many); a point or spot light alone.
-            kind = Shooter if isinstance(shot, Shooter) else SunLight
+            batched = next((kind for kind in (Shooter, SunLight) if isinstance(shot, kind)),
+                           None)
             batch = [shot]
             most = min(self._bake.state.receiver_batch, self.shot_limit - self.shots)
-            if isinstance(shot, kind):
-                while len(batch) < most and queue.shots and isinstance(queue.shots[0], kind):
-                    batch.append(queue.shots.pop(0))
-            if kind is Shooter:
+            while (batched is not None and len(batch) < most and queue.shots
+                   and isinstance(queue.shots[0], batched)):
+                batch.append(queue.shots.pop(0))
+            if batched is Shooter:
                 self._shoot_patches(batch)
             else:
                 self._shoot_lights(batch)
@@ -425,7 +426,8 @@ class Solver:
             self._timed("visibility", visibility.render_batch, state, bake.visibility, views,
                         faces=visibility.SUN_FACES, clip_below=False)
             # The suns' windows: what misses the scene is not left unshot.
-            covered = visibility.covered_shares(state, bake.visibility, len(lights))
+            covered = self._timed("visibility", visibility.covered_shares, state,
+                                  bake.visibility, len(lights))
             energy.sunlight_missed += sum(float(np.mean(power)) * (1.0 - share)
                                           for power, share in zip(powers, covered))
         else:
