@@ -365,12 +365,7 @@ class Solver:
         made = []
         for (region, finer), maps in zip(chosen, shooters.read_blocks(
                 state, caches, [region for region, _ in chosen])):
-            # Parts sharpen shadows: a block whose light all lands across a thin gap (a
-            # lamp's back under the ceiling, emitting as strongly as its front) casts none,
-            # and shoots whole.
-            if finer and thin_gaps.all_across_thin_gap(state, bake.gaps, region, maps.position,
-                                                       maps.normal, maps.unshot[:, 3]):
-                finer = 0
+            finer = thin_gaps.parts_finer(state, bake.gaps, region, maps, finer)
             for part, part_maps, rows in shooters.parts(state, region, maps, finer):
                 charts = shooters.charts_of(state, caches, region, maps, rows)
                 shooter = shooters.make_shooter(state, caches, part, part_maps, charts)

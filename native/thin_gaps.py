@@ -141,11 +141,16 @@ def near_thin_gap(state, gaps, region, position, normal, texel_size):
                                         texel_size).any())
 
 
-def all_across_thin_gap(state, gaps, region, position, normal, texel_size):
-    """Whether every texel of the region faces a receiving triangle across a thin gap (as
-    near_thin_gap): all its light lands across the gap (a lamp's back under the ceiling)."""
-    return bool(_facing_across_thin_gap(state, gaps, region, position, normal,
-                                        texel_size).all())
+def parts_finer(state, gaps, region, maps, finer):
+    """How many levels finer than the block ``region`` its parts shoot: ``finer``
+    (selection.block_region), or none where every texel of it faces a receiving triangle
+    across a thin gap (as near_thin_gap). Parts sharpen shadows; all the light of such a
+    block lands across the gap and casts none (a lamp's back under the ceiling, emitting as
+    strongly as its front)."""
+    if finer and _facing_across_thin_gap(state, gaps, region, maps.position, maps.normal,
+                                         maps.unshot[:, 3]).all():
+        return 0
+    return finer
 
 
 def _facing_across_thin_gap(state, gaps, region, position, normal, texel_size):
