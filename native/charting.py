@@ -295,10 +295,11 @@ def _generate(atlas, chart_options, pack_options):
 
 
 def destroy_settled_atlases():
-    """Destroy the atlases of earlier builds once their workers have long been asleep."""
-    if _generated:
-        time.sleep(max(0.0, _generated[-1][1] + XATLAS_SETTLE_SECONDS - time.monotonic()))
-        _generated.clear()
+    """Destroy the atlases of earlier builds whose workers have long been asleep; younger
+    ones wait for a later build (a bake charts twice within a fraction of a second: for its
+    materials, then for the solver, which finds the layouts cached)."""
+    settled = time.monotonic() - XATLAS_SETTLE_SECONDS
+    _generated[:] = [(atlas, when) for atlas, when in _generated if when > settled]
 
 
 def overlapping_faces(uv, face, resolution=OVERLAP_RESOLUTION):
