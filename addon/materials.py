@@ -16,9 +16,9 @@ texel, each texel the mean of those on a triangle; the others at MATERIAL_SAMPLE
 over the texel (Cycles' pixel filter averages what lies around its centre).
 
 Cycles bakes temporary copies of the evaluated meshes, with temporary copies of their
-materials, each alone in a temporary scene: the user's scene, objects, materials, images,
-render settings and UV maps are never edited, and every temporary block is removed, whatever
-happens."""
+materials, each alone in a temporary scene (those whose materials cannot vary joined into one
+object): the user's scene, objects, materials, images, render settings and UV maps are never
+edited, and every temporary block is removed, whatever happens."""
 from contextlib import contextmanager
 import ctypes
 from dataclasses import dataclass, field, replace
@@ -345,21 +345,21 @@ def _bake_pages(copies, atlas, bake):
                 material.node_tree.nodes.active.image = image
         # One object at a time in the scene: Cycles syncs the whole scene for each object it
         # bakes, and these passes need no light from the others.
-        for copy in chosen:
-            cycles.samples = MATERIAL_SAMPLES if copy.varies else 1
-            settings.collection.objects.link(copy.obj)
+        for obj, samples in _bake_objects(chosen, bake):
+            cycles.samples = samples
+            settings.collection.objects.link(obj)
             try:
                 with bpy.context.temp_override(scene=settings, view_layer=view_layer,
-                                               selected_objects=[copy.obj],
-                                               selected_editable_objects=[copy.obj],
-                                               active_object=copy.obj, object=copy.obj):
+                                               selected_objects=[obj],
+                                               selected_editable_objects=[obj],
+                                               active_object=obj, object=obj):
                     with bake_reports_silenced():
                         bpy.ops.object.bake(type=kind, pass_filter={'COLOR'}, uv_layer=BAKE_UV,
                                             margin=0, use_clear=False,
                                             target='IMAGE_TEXTURES',
                                             use_selected_to_active=False, use_cage=False)
             finally:
-                settings.collection.objects.unlink(copy.obj)
+                settings.collection.objects.unlink(obj)
         for copy in chosen:
             pixels = texel_means(image_pixels(images[id(copy)]), _supersample(copy))
             height, width = pixels.shape[:2]
@@ -375,6 +375,68 @@ def _bake_pages(copies, atlas, bake):
             fill_gutter(page, GUTTER_TEXELS)
         passes.append([page[..., :3] for page in pages])
     return passes
+
+
+def _bake_objects(copies, bake):
+    """(object, samples) for each Cycles bake of ``copies``: a material that varies, its copy
+    alone at MATERIAL_SAMPLES; those that cannot vary joined into one object (_joined) at
+    one sample, as their copies read nothing of their meshes. Each bake's fixed cost (the
+    scene's sync, the kernels' set-up), not the texels, was most of their time in a scene
+    of many objects."""
+    constant = [copy for copy in copies if not copy.varies]
+    if len(constant) > 1:
+        yield _joined(constant, bake), 1
+    elif constant:
+        yield constant[0].obj, 1
+    for copy in copies:
+        if copy.varies:
+            yield copy.obj, MATERIAL_SAMPLES
+
+
+def _joined(copies, bake):
+    """A temporary object of the copies' meshes in world space, each face with its BAKE_UV
+    corners and its copy's materials (whose active nodes are its copy's images): a bake of
+    it writes each copy's images as a bake of the copy would."""
+    positions, corners, starts, slots, uv, materials = [], [], [], [], [], []
+    vertex_count = corner_count = 0
+    for copy in copies:
+        mesh, matrix = copy.obj.data, np.array(copy.obj.matrix_world, dtype=np.float64)
+        co = _attribute(mesh.vertices, "co", np.float32, 3).astype(np.float64)
+        positions.append(co @ matrix[:3, :3].T + matrix[:3, 3])
+        corners.append(_attribute(mesh.loops, "vertex_index", np.int32, 1) + vertex_count)
+        starts.append(_attribute(mesh.polygons, "loop_start", np.int32, 1) + corner_count)
+        # Blender clamps a face's slot to the mesh's last: here that would be the next copy's.
+        slots.append(np.minimum(_attribute(mesh.polygons, "material_index", np.int32, 1),
+                                len(mesh.materials) - 1) + len(materials))
+        uv.append(_attribute(mesh.uv_layers[BAKE_UV].uv, "vector", np.float32, 2))
+        materials += list(mesh.materials)
+        vertex_count += len(mesh.vertices)
+        corner_count += len(mesh.loops)
+    joined = bpy.data.meshes.new(TEMP_PREFIX + "Joined")
+    bake.meshes.append(joined)
+    joined.vertices.add(vertex_count)
+    joined.vertices.foreach_set("co", np.concatenate(positions).astype(np.float32).ravel())
+    joined.loops.add(corner_count)
+    joined.loops.foreach_set("vertex_index", np.concatenate(corners))
+    starts = np.concatenate(starts)
+    joined.polygons.add(len(starts))
+    joined.polygons.foreach_set("loop_start", starts)
+    joined.polygons.foreach_set("material_index", np.concatenate(slots))
+    joined.update()
+    layer = joined.uv_layers.new(name=BAKE_UV, do_init=False)
+    layer.uv.foreach_set("vector", np.concatenate(uv).ravel())
+    joined.uv_layers.active = layer
+    for material in materials:
+        joined.materials.append(material)
+    obj = bpy.data.objects.new(TEMP_PREFIX + "Joined", joined)
+    bake.objects.append(obj)
+    return obj
+
+
+def _attribute(collection, name, dtype, components):
+    values = np.empty(len(collection) * components, dtype=dtype)
+    collection.foreach_get(name, values)
+    return values.reshape(-1, components) if components > 1 else values
 
 
 def _supersample(copy):

@@ -149,6 +149,51 @@ def test_albedo_of_any_node_tree_is_cycles_diffuse_colour_per_texel():
         assert np.sqrt((relative ** 2).mean()) < 0.05, name
 
 
+def test_constant_materials_of_many_objects_bake_as_cycles_colour_per_texel():
+    """Materials that cannot vary over a surface are evaluated in one Cycles bake of the
+    objects joined (addon/materials.py, _joined): per texel each object's albedo is still
+    Cycles' own DIFFUSE COLOR bake of its UVs, for objects turned and scaled, one with two
+    material slots and a face whose slot number lies past its last slot (Blender shows it
+    with the last), and beside them one whose material varies (baked alone)."""
+    scene = blender_session.empty_file()
+    colours = {"Red": (0.7, 0.1, 0.1), "Green": (0.1, 0.6, 0.2), "Blue": (0.15, 0.2, 0.7),
+               "Grey": (0.5, 0.5, 0.5)}
+    materials = {name: blender_scenes.material(name, colour) for name, colour in colours.items()}
+    # The slots' object first: a slot number past its own would reach the others'.
+    slots = blender_scenes.mesh_object(
+        scene, "Slots", [(0, 3, 0), (2, 3, 0), (2, 5, 0), (0, 5, 0), (4, 3, 0), (4, 5, 0),
+                         (6, 3, 0), (6, 5, 0)],
+        [(0, 1, 2, 3), (1, 4, 5, 2), (4, 6, 7, 5)], materials["Blue"])
+    slots.data.materials.append(materials["Grey"])
+    slots.data.polygons.foreach_set("material_index", [0, 1, 7])
+    red = blender_scenes.quad(scene, "Red", [(0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0)],
+                              materials["Red"])
+    green = blender_scenes.quad(scene, "Green", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)],
+                                materials["Green"])
+    green.location, green.scale = (3.0, 0.0, 0.0), (2.0, 1.5, 1.0)
+    green.rotation_euler = (0.0, 0.0, math.radians(30.0))
+    varying = blender_scenes.quad(scene, "Ramp", [(7, 0, 0), (9, 0, 0), (9, 2, 0), (7, 2, 0)],
+                                  textured_material("Ramp", noise_ramp))
+    for obj in (red, green, slots, varying):
+        obj.data.uv_layers.new(name="UVMap")
+    blender_scenes.light(scene, "Sun", 'SUN', (0, 0, 5), energy=SUN)
+    blender_scenes.luxel_settings(scene, DENSITY, threshold=0.01)
+    albedo_pages = bake_keeping_albedo()
+    colour = reference.cycles_reference(bpy.context, samples=64, pass_filter={'COLOR'})
+    for name in ("Red", "Green", "Slots", "Ramp"):
+        obj = scene.objects[name]
+        page = int(obj.luxel.image[addon.writeback.PAGE_KEY])
+        covered = colour[name][..., 3] > 0
+        truth = colour[name][covered][:, :3].astype(np.float64)
+        ours = albedo_pages[page][covered] * addon.materials.TEXTURE_TINT
+        relative = (ours - truth) / truth.mean(axis=0)
+        assert np.sqrt((relative ** 2).mean()) < 0.02, name
+    # The slots' faces: blue, then grey twice (the third's slot is past the last).
+    slot_colours = colour["Slots"][colour["Slots"][..., 3] > 0][:, :3]
+    assert np.isclose(slot_colours, colours["Blue"], atol=1e-3).all(axis=1).mean() > 0.2
+    assert np.isclose(slot_colours, colours["Grey"], atol=1e-3).all(axis=1).mean() > 0.5
+
+
 def test_emission_of_a_procedural_texture_emits_its_integral():
     """A 2 m plane emitting a linear gradient (0 to 1 across it, Generated coordinates) at
     strength 4 from both faces: 2 pi A 4 / 2 watts per channel."""
