@@ -11,6 +11,7 @@ import numpy as np
 
 from ..native import PointLight, Scene, SceneError, SetUpProgress
 from ..native.charting import overlapping_faces
+from ..native.geometry import unique_rows
 from ..native.scene import UV_TOLERANCE, triangle_areas
 from . import display
 from .lights import AreaLight, light_of, sky_of
@@ -334,7 +335,7 @@ class _Exporter:
         used_loops = loops.ravel()
         keys = np.column_stack([loop_vertex[used_loops],
                                 np.round(corner_normals[used_loops] * 1e4).astype(np.int64)])
-        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        _, first, inverse = unique_rows(keys, return_index=True, return_inverse=True)
         vertex_loops = used_loops[first]
         vertices = positions[loop_vertex[vertex_loops]]
         normals = corner_normals[vertex_loops]
@@ -545,6 +546,6 @@ def _is_open(corners):
     """Whether a mesh (triangles as mesh vertex indices) has an edge used by one face only:
     a sheet, whose back can face the room, not a solid's inside."""
     edges = np.sort(corners[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    _, counts = np.unique(edges, axis=0, return_counts=True)
+    _, counts = unique_rows(edges, return_counts=True)
     return bool((counts == 1).any())
 

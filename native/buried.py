@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import TrianglePlanes, connected_components, tangents_of
+from .geometry import TrianglePlanes, connected_components, tangents_of, unique_rows
 from .state import read_map
 
 # Points per texel edge at which a texel's surface is tested, off the texel's middle lines
@@ -156,9 +156,8 @@ def coincident_pairs(triangles, epsilon):
     corners, normal, offset = triangles.corners, triangles.normals, triangles.offsets
     # Planes: triangles of one rounded normal whose offsets follow each other within
     # epsilon; each plane's triangles in the frame of their rounded normal.
-    keys, direction = np.unique(np.round(normal * NORMAL_STEPS).astype(np.int64), axis=0,
-                                return_inverse=True)
-    direction = direction.ravel()
+    keys, direction = unique_rows(np.round(normal * NORMAL_STEPS).astype(np.int64),
+                                  return_inverse=True)
     order = np.lexsort((offset, direction))
     new_plane = np.r_[True, (np.diff(direction[order]) != 0)
                       | (np.diff(offset[order]) > epsilon)]
@@ -278,7 +277,7 @@ def _solids(scene):
     corners = scene.vertices[scene.triangles[triangles]]
     size = float(np.ptp(scene.vertices, axis=0).max()) or 1.0
     keys = np.round(corners.reshape(-1, 3) / (WELD * size)).astype(np.int64)
-    _, welded = np.unique(keys, axis=0, return_inverse=True)
+    _, welded = unique_rows(keys, return_inverse=True)
     welded = welded.reshape(-1, 3)
     # Triangles sharing a welded vertex are one mesh.
     vertex_mesh = connected_components(int(welded.max()) + 1,
@@ -306,7 +305,7 @@ def _closed(welded):
     """Whether each edge of the triangles (welded vertex numbers) is shared by two of them."""
     edges = np.sort(np.concatenate([welded[:, [0, 1]], welded[:, [1, 2]], welded[:, [2, 0]]]),
                     axis=1)
-    _, counts = np.unique(edges, axis=0, return_counts=True)
+    _, counts = unique_rows(edges, return_counts=True)
     return bool((counts == 2).all())
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import xatlas
 
 from .errors import SettingsError
-from .geometry import texel_span
+from .geometry import texel_span, unique_rows
 
 OVERLAP_RESOLUTION = 1024   # grid overlapping_faces tests a UV map's [0, 1] square on
 OVERLAP_MARGIN = 1e-3       # of a cell: closer to a triangle's edge is on the edge
@@ -341,7 +341,7 @@ def overlapping_faces(uv, face, resolution=OVERLAP_RESOLUTION):
                                  face[owner[inside]]], axis=1))
     if not covered:
         return np.zeros(len(uv), bool)
-    pairs = np.unique(np.concatenate(covered), axis=0)
+    pairs = unique_rows(np.concatenate(covered))
     _, faces_in_cell = np.unique(pairs[:, 0], return_counts=True)
     shared = np.repeat(faces_in_cell > 1, faces_in_cell)
     return np.isin(face, pairs[shared, 1])

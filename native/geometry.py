@@ -38,6 +38,27 @@ class TrianglePlanes:
                           & (self.high[candidates] >= low).all(axis=1)]
 
 
+def unique_rows(rows, *, return_index=False, return_inverse=False, return_counts=False):
+    """np.unique(rows, axis=0, ...) (the distinct rows in lexicographic order, and the first
+    index, inverse and counts asked for), by a stable lexsort of the columns: numpy's sorts
+    each row as one opaque item, several times slower over a big mesh's corners."""
+    rows = np.asarray(rows)
+    order = np.lexsort(rows.T[::-1])
+    ordered = rows[order]
+    starts = np.ones(len(rows), dtype=bool)
+    starts[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    found = [ordered[starts]]
+    if return_index:
+        found.append(order[starts])
+    if return_inverse:
+        inverse = np.empty(len(rows), dtype=np.int64)
+        inverse[order] = np.cumsum(starts) - 1
+        found.append(inverse)
+    if return_counts:
+        found.append(np.diff(np.append(np.flatnonzero(starts), len(rows))))
+    return found[0] if len(found) == 1 else tuple(found)
+
+
 def smooth_surfaces(scene):
     """A number per triangle for the smooth surface it belongs to: triangles joined across
     shared edges that bend by less than SMOOTH_SURFACE_DEGREES (a curved mesh's facets are
@@ -60,8 +81,8 @@ def smooth_surfaces(scene):
     step = 1e-5 * max(float(np.linalg.norm(hi - lo)), 1e-9)
     plane = np.column_stack([scene.object_index, np.round(normals * 1e4),
                              np.round((normals * corners[:, 0]).sum(axis=1) / step)])
-    _, first, group = np.unique(plane, axis=0, return_index=True, return_inverse=True)
-    a, b = np.concatenate([a, np.arange(count)]), np.concatenate([b, first[group.ravel()]])
+    _, first, group = unique_rows(plane, return_index=True, return_inverse=True)
+    a, b = np.concatenate([a, np.arange(count)]), np.concatenate([b, first[group]])
     return connected_components(count, a, b)
 
 

@@ -10,7 +10,7 @@ import math
 import moderngl
 import numpy as np
 
-from .geometry import TrianglePlanes, texels_to_world
+from .geometry import TrianglePlanes, texels_to_world, unique_rows
 from .gpu import render_state, set_uniform
 from .plane_polygons import (area, chord_lengths, clipped, clipped_segment, outlines_of,
                              share_under, signed_area, square, square_halves)
@@ -428,8 +428,8 @@ def open_edges(state):
             else np.zeros(len(atlas.triangles), dtype=bool))
     sheet = np.repeat((2 * state.surfaces[atlas.triangles] + back)[:, None, None], 3, axis=1)
     keys = np.concatenate([sheet, first, second], axis=2).reshape(-1, 7)
-    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-    return (counts[inverse.ravel()] == 1).reshape(-1, 3)
+    _, inverse, counts = unique_rows(keys, return_inverse=True, return_counts=True)
+    return (counts[inverse] == 1).reshape(-1, 3)
 
 
 def receiving_texels(state, gaps):

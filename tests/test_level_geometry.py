@@ -12,7 +12,7 @@ import analytic
 import scenes
 from test_hard_cases import occupied_texels, solve
 from native import Settings, Solver, SunLight, buried, receivers, shooters
-from native.geometry import TrianglePlanes
+from native.geometry import TrianglePlanes, unique_rows
 from native.samples import SceneBuilder
 
 
@@ -454,3 +454,18 @@ def test_faces_in_one_plane_pair_where_they_overlap_not_where_they_touch():
     # 0, 1: the quad; 2, 3: its copy; 4, 5 facing down; 6, 7 above; 8 corner; 9 beside;
     # 10, 11 tilted (its corners 1 mm off at x = 4: not in the quad's plane).
     assert pairs == {(0, 2), (1, 3), (0, 8), (1, 8), (2, 8), (3, 8)}
+
+
+@pytest.mark.parametrize("dtype", [np.int64, np.float64])
+def test_unique_rows_are_numpys_unique_rows(dtype):
+    """geometry.unique_rows (a level's corners, edges and planes made distinct) against numpy's
+    np.unique(axis=0): the rows, first indices, inverse and counts, on rows with many repeats
+    and on none."""
+    rows = np.random.default_rng(3).integers(-3, 4, (5000, 3)).astype(dtype)
+    for given in (rows, rows[:0]):
+        ours = unique_rows(given, return_index=True, return_inverse=True, return_counts=True)
+        theirs = np.unique(given, axis=0, return_index=True, return_inverse=True,
+                           return_counts=True)
+        for mine, numpys in zip(ours, theirs):
+            np.testing.assert_array_equal(mine, np.ravel(numpys) if mine.ndim == 1 else numpys)
+    np.testing.assert_array_equal(unique_rows(rows), np.unique(rows, axis=0))
