@@ -122,6 +122,18 @@ def bake_keeping_albedo():
     return albedo_pages
 
 
+def albedo_against_cycles(obj, albedo_pages, colour):
+    """The object's albedo per texel Cycles' DIFFUSE COLOR bake ``colour`` covers, and
+    Cycles', checked within 2 % RMS of Cycles' mean; returns both (N, 3)."""
+    page = int(obj.luxel.image[addon.writeback.PAGE_KEY])
+    covered = colour[..., 3] > 0
+    truth = colour[covered][:, :3].astype(np.float64)
+    ours = albedo_pages[page][covered] * addon.materials.TEXTURE_TINT
+    relative = (ours - truth) / truth.mean(axis=0)
+    assert np.sqrt((relative ** 2).mean()) < 0.02, obj.name
+    return ours, truth
+
+
 def test_albedo_of_any_node_tree_is_cycles_diffuse_colour_per_texel():
     """Per texel, the albedo Luxel solves with is Cycles' own DIFFUSE COLOR bake of the same
     UVs (2 % RMS, 1 % in the mean: both are sampled, Luxel's at 32 samples a texel), and each
@@ -133,12 +145,7 @@ def test_albedo_of_any_node_tree_is_cycles_diffuse_colour_per_texel():
     lit = reference.cycles_reference(bpy.context, samples=256, bounces=4)
     for name in MATERIALS:
         obj = scene.objects[name]
-        page = int(obj.luxel.image[addon.writeback.PAGE_KEY])
-        covered = colour[name][..., 3] > 0
-        truth = colour[name][covered][:, :3].astype(np.float64)
-        ours = albedo_pages[page][covered] * addon.materials.TEXTURE_TINT
-        relative = (ours - truth) / truth.mean(axis=0)
-        assert np.sqrt((relative ** 2).mean()) < 0.02, name
+        ours, truth = albedo_against_cycles(obj, albedo_pages, colour[name])
         np.testing.assert_allclose(ours.mean(axis=0), truth.mean(axis=0), rtol=0.01,
                                    err_msg=name)
         mean = reference.object_means({name: lit[name]})[name]
@@ -181,13 +188,7 @@ def test_constant_materials_of_many_objects_bake_as_cycles_colour_per_texel():
     albedo_pages = bake_keeping_albedo()
     colour = reference.cycles_reference(bpy.context, samples=64, pass_filter={'COLOR'})
     for name in ("Red", "Green", "Slots", "Ramp"):
-        obj = scene.objects[name]
-        page = int(obj.luxel.image[addon.writeback.PAGE_KEY])
-        covered = colour[name][..., 3] > 0
-        truth = colour[name][covered][:, :3].astype(np.float64)
-        ours = albedo_pages[page][covered] * addon.materials.TEXTURE_TINT
-        relative = (ours - truth) / truth.mean(axis=0)
-        assert np.sqrt((relative ** 2).mean()) < 0.02, name
+        albedo_against_cycles(scene.objects[name], albedo_pages, colour[name])
     # The slots' faces: blue, then grey twice (the third's slot is past the last).
     slot_colours = colour["Slots"][colour["Slots"][..., 3] > 0][:, :3]
     assert np.isclose(slot_colours, colours["Blue"], atol=1e-3).all(axis=1).mean() > 0.2
