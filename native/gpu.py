@@ -3,6 +3,7 @@ folder, and one registry that releases every GL object the solver made."""
 from contextlib import contextmanager
 import ctypes
 import ctypes.util
+import functools
 from pathlib import Path
 import re
 import sys
@@ -146,12 +147,7 @@ def using(ctx):
 def load_shader(name, defines=None):
     """Source of shaders/<name>, with #include "file" lines replaced by that file, and a
     #define after the #version line for each (name, value) of ``defines``."""
-    def expand(path, seen):
-        if path in seen:
-            raise RuntimeError(f"recursive #include of {path}")
-        text = (SHADER_DIR / path).read_text()
-        return _INCLUDE.sub(lambda m: expand(m.group(1), seen | {path}), text)
-    source = expand(name, frozenset())
+    source = _expanded(name)
     if not defines:
         return source
     version, rest = source.split("\n", 1)
@@ -159,14 +155,28 @@ def load_shader(name, defines=None):
                       + [rest])
 
 
+# Every bake makes its programs anew: the files are read and searched once per process.
+@functools.lru_cache(maxsize=None)
+def _expanded(name):
+    def expand(path, seen):
+        if path in seen:
+            raise RuntimeError(f"recursive #include of {path}")
+        text = (SHADER_DIR / path).read_text()
+        return _INCLUDE.sub(lambda m: expand(m.group(1), seen | {path}), text)
+    return expand(name, frozenset())
+
+
 def declared_uniforms(*sources):
     """The names of the uniforms that GLSL ``sources`` (#include expanded) declare: the
     compiler drops those a program does not use, and moderngl then does not list them."""
-    names = set()
-    for source in sources:
-        for declaration in _UNIFORM.findall(_COMMENT.sub(" ", source)):
-            names.update(name.split("[")[0].strip() for name in declaration.split(","))
-    return names
+    return set().union(*(_declared(source) for source in sources))
+
+
+@functools.lru_cache(maxsize=None)
+def _declared(source):
+    return frozenset(name.split("[")[0].strip()
+                     for declaration in _UNIFORM.findall(_COMMENT.sub(" ", source))
+                     for name in declaration.split(","))
 
 
 class UndeclaredUniformError(LookupError):
