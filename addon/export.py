@@ -15,7 +15,8 @@ from ..native.geometry import unique_rows
 from ..native.scene import UV_TOLERANCE, triangle_areas
 from . import display
 from .lights import AreaLight, light_of, sky_of
-from .materials import instance_key, may_emit
+from .materials import instance_key
+from .node_trees import may_emit
 from .writeback import MODIFIER, UV_MAP, UV_MAP_BACK
 
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # what Cycles shows for an empty material slot

@@ -30,7 +30,8 @@ import numpy as np
 
 from ..native import SceneError, lightmap_atlas
 from ..native.postprocess import fill_gutter
-from .display import NODE_PREFIX, STATE_KEY, strip_display_nodes
+from . import node_trees
+from .display import STATE_KEY, strip_display_nodes
 from .writeback import hold_render_uv, image_pixels
 
 MATERIAL_SAMPLES = 32       # Cycles samples per texel of a material that varies
@@ -51,30 +52,12 @@ OUTSIDE_UV = -16.0          # where corners outside the atlas go: off every imag
 GUTTER_TEXELS = 3           # filled around each chart: partly covered texels and the
 #                             bilinear filter at chart borders read real values
 DEFAULT_COLOUR = (0.8, 0.8, 0.8, 1.0)   # what Cycles shows for an empty material slot
-# What a material's copy cannot give as the scene renders it (_unevaluable), as warnings.
-MISSING_IMAGES = ("no pixels in {images} (read by {materials}): missing files? Cycles shows "
-                  "them magenta and Luxel bakes them so; find them (File > External Data > "
-                  "Find Missing Files) or remove their nodes")
-RAY_KIND = ("{materials} ({nodes}) depend on the kind of ray; Luxel evaluates them as a "
-            "camera ray sees them")
-OBJECT_DATA = ("{materials} ({nodes}) read the object, its instancer or the view layer; Luxel "
-               "evaluates them on a copy of the mesh, where these read their defaults")
-# Nodes whose output does not vary over a surface unless something that does feeds them.
-_VARYING_PREFIXES = ("ShaderNodeTex",)
-_VARYING = {"ShaderNodeTexCoord", "ShaderNodeUVMap", "ShaderNodeAttribute",
-            "ShaderNodeVertexColor", "ShaderNodeNewGeometry", "ShaderNodeObjectInfo",
-            "ShaderNodeParticleInfo", "ShaderNodeHairInfo", "ShaderNodePointInfo",
-            "ShaderNodeTangent", "ShaderNodeFresnel", "ShaderNodeLayerWeight",
-            "ShaderNodeWireframe", "ShaderNodeBevel", "ShaderNodeAmbientOcclusion",
-            "ShaderNodeLightPath", "ShaderNodeCameraData", "ShaderNodeScript",
-            "ShaderNodeNormalMap", "ShaderNodeBump", "ShaderNodeDisplacement"}
-_EMITTERS = {"ShaderNodeEmission", "ShaderNodeBackground"}
 
 
 @dataclass
 class _Unevaluable:
-    """Where one kind of problem (_unevaluable) was found: its images or nodes and the
-    materials holding them, each once, in the order met (dicts as ordered sets)."""
+    """Where one kind of problem (node_trees.unevaluable) was found: its images or nodes
+    and the materials holding them, each once, in the order met (dicts as ordered sets)."""
     subjects: dict = field(default_factory=dict)
     materials: dict = field(default_factory=dict)
 
@@ -162,21 +145,6 @@ def instance_key(instance):
     return (instance.object.original.name, instancer, tuple(instance.persistent_id))
 
 
-def may_emit(material):
-    """Whether ``material`` may emit light anywhere: an Emission node, or a Principled BSDF
-    whose emission strength is wired or not 0 (Cycles' negative values are warned of),
-    feeds its output (through any nodes, node groups included). Cycles measures how much
-    (EMIT); this only decides, before the atlas is charted, which triangles are emitters
-    (they shoot from a copy of their back too)."""
-    output = _user_output(material)
-    return output is not None and any(
-        node.bl_idname in _EMITTERS or (
-            node.bl_idname == 'ShaderNodeBsdfPrincipled'
-            and (node.inputs["Emission Strength"].is_linked
-                 or node.inputs["Emission Strength"].default_value != 0.0))
-        for node in _upstream(output))
-
-
 # ------------------------------------------------------------------------ the copies
 def _make_copies(depsgraph, export, atlas, row_of, bake):
     """A temporary object per charted Surface: its evaluated mesh (every attribute kept) at
@@ -235,11 +203,11 @@ def _make_copies(depsgraph, export, atlas, row_of, bake):
         used = [originals[slot] for slot in np.unique(surface.slot)
                 if originals[slot] is not None]
         for original in used:
-            for problem, subject in _unevaluable(original):
+            for problem, subject in node_trees.unevaluable(original):
                 found = unevaluable.setdefault(problem, _Unevaluable())
                 found.subjects[subject] = found.materials[original.name] = None
-        copies.append(_Copy(obj, page, low, size, any(_varies(m) for m in used),
-                            any(may_emit(m) for m in used)))
+        copies.append(_Copy(obj, page, low, size, any(node_trees.varies(m) for m in used),
+                            any(node_trees.may_emit(m) for m in used)))
     # One warning per kind of problem: an imported level's hundred materials missing their
     # images would otherwise bury every other warning.
     export.warnings += [problem.format(images=quoted_names("image", found.subjects),
@@ -520,67 +488,6 @@ def _mean_emission(export, atlas, row_of, emission):
                           weight + area[mine].sum())
     return {name: tuple(total / weight) for name, (total, weight) in sums.items()
             if name is not None and weight > 0.0 and total.max() > 0.0}
-
-
-# ------------------------------------------------------------------------ node trees
-def _user_output(material):
-    """The material's active Cycles output, the user's own while Luxel's display shows."""
-    tree = material.node_tree
-    if tree is None:
-        return None
-    if STATE_KEY in material:
-        return tree.nodes.get(material[STATE_KEY]["output"])
-    outputs = [n for n in tree.nodes if n.bl_idname == 'ShaderNodeOutputMaterial']
-    for node in outputs:
-        if node.is_active_output and getattr(node, "target", "ALL") in ('ALL', 'CYCLES'):
-            return node
-    return outputs[0] if outputs else None
-
-
-def _upstream(node, seen=None):
-    """Every node that feeds ``node`` (itself included), inside node groups too."""
-    seen = set() if seen is None else seen
-    found = []
-    stack = [node]
-    while stack:
-        node = stack.pop()
-        if node.as_pointer() in seen or node.name.startswith(NODE_PREFIX):
-            continue
-        seen.add(node.as_pointer())
-        found.append(node)
-        if node.bl_idname == 'ShaderNodeGroup' and node.node_tree is not None:
-            outputs = [n for n in node.node_tree.nodes if n.bl_idname == 'NodeGroupOutput']
-            for output in outputs:
-                found += _upstream(output, seen)
-        for socket in node.inputs:
-            stack += [link.from_node for link in socket.links if link.is_valid]
-    return found
-
-
-def _varies(material):
-    """Whether a material's result may vary over a surface (it reads a texture, coordinates,
-    attributes, geometry or the view): such materials bake at MATERIAL_SAMPLES."""
-    output = _user_output(material)
-    return output is not None and any(
-        node.bl_idname in _VARYING or node.bl_idname.startswith(_VARYING_PREFIXES)
-        for node in _upstream(output))
-
-
-def _unevaluable(material):
-    """(problem, subject) for what a bake of the material's copy on a copy of its mesh cannot
-    give as the scene renders it: the problem a warning's text, with {images} or {nodes}
-    (the subjects) and {materials} to fill in."""
-    output = _user_output(material)
-    for node in [] if output is None else _upstream(output):
-        if (node.bl_idname == 'ShaderNodeTexImage' and node.image is not None
-                and 0 in node.image.size):
-            yield MISSING_IMAGES, node.image.name
-        elif node.bl_idname == 'ShaderNodeLightPath':
-            yield RAY_KIND, node.name
-        elif node.bl_idname == 'ShaderNodeObjectInfo' or (
-                node.bl_idname == 'ShaderNodeAttribute'
-                and node.attribute_type in {'OBJECT', 'INSTANCER', 'VIEW_LAYER'}):
-            yield OBJECT_DATA, node.name
 
 
 def quoted_names(noun, names, most=3):
