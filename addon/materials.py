@@ -83,6 +83,14 @@ class _Bake:
         self.objects, self.meshes, self.materials, self.images = [], [], [], []
         self.scene = None
 
+    def remove(self, obj):
+        """Remove a temporary object and its mesh now."""
+        mesh = obj.data
+        self.objects.remove(obj)
+        bpy.data.objects.remove(obj)
+        self.meshes.remove(mesh)
+        bpy.data.meshes.remove(mesh)
+
 
 @dataclass
 class _Copy:
@@ -353,7 +361,9 @@ def _bake_objects(copies, bake):
     of many objects."""
     constant = [copy for copy in copies if not copy.varies]
     if len(constant) > 1:
-        yield _joined(constant, bake), 1
+        joined = _joined(constant, bake)
+        yield joined, 1
+        bake.remove(joined)     # as big as the copies' meshes: not kept for the next pass
     elif constant:
         yield constant[0].obj, 1
     for copy in copies:
