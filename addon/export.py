@@ -17,7 +17,7 @@ from . import display
 from .lights import AreaLight, light_of, sky_of
 from .materials import instance_key
 from .node_trees import may_emit
-from .writeback import MODIFIER, UV_MAP, UV_MAP_BACK
+from .writeback import MODIFIER, UV_MAP, UV_MAP_BACK, collection_array
 
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # what Cycles shows for an empty material slot
 # export_steps reads objects for this long between its pauses (a modal bake's timer ticks):
@@ -309,12 +309,12 @@ class _Exporter:
         triangles_count = len(mesh.loop_triangles)
         if triangles_count == 0:
             return
-        loops = _array(mesh.loop_triangles, "loops", np.int64, (triangles_count, 3))
-        material_index = _array(mesh.loop_triangles, "material_index", np.int64, (-1,))
-        polygon = _array(mesh.loop_triangles, "polygon_index", np.int64, (-1,))
-        loop_vertex = _array(mesh.loops, "vertex_index", np.int64, (-1,))
-        positions = _array(mesh.vertices, "co", np.float64, (-1, 3))
-        corner_normals = _array(mesh.corner_normals, "vector", np.float64, (-1, 3))
+        loops = collection_array(mesh.loop_triangles, "loops", np.int64, (triangles_count, 3))
+        material_index = collection_array(mesh.loop_triangles, "material_index", np.int64, (-1,))
+        polygon = collection_array(mesh.loop_triangles, "polygon_index", np.int64, (-1,))
+        loop_vertex = collection_array(mesh.loops, "vertex_index", np.int64, (-1,))
+        positions = collection_array(mesh.vertices, "co", np.float64, (-1, 3))
+        corner_normals = collection_array(mesh.corner_normals, "vector", np.float64, (-1, 3))
 
         linear = matrix[:3, :3]
         positions = positions @ linear.T + matrix[:3, 3]
@@ -393,7 +393,7 @@ class _Exporter:
         if layer is None:
             raise SceneError(f"object '{name}' has no UV map '{uv_map}' (after its modifiers): "
                              f"choose one it has, {fix}", name)
-        corners = _array(layer.uv, "vector", np.float64, (-1, 2))[loops]
+        corners = collection_array(layer.uv, "vector", np.float64, (-1, 2))[loops]
         outside = ((corners < -UV_TOLERANCE) | (corners > 1.0 + UV_TOLERANCE)).any(axis=(1, 2))
         if outside.any():
             raise SceneError(f"object '{name}': UV map '{uv_map}' has {_faces(polygon[outside])} "
@@ -507,13 +507,6 @@ class _Exporter:
 
 
 # ---------------------------------------------------------------------- helpers
-def _array(collection, attribute, dtype, shape):
-    width = int(np.prod(shape[1:])) if len(shape) > 1 else 1
-    flat = np.empty(len(collection) * width, dtype=dtype)
-    collection.foreach_get(attribute, flat)
-    return flat.reshape(shape)
-
-
 def _faces(polygon):
     count = len(np.unique(polygon))
     return f"{count} face{'' if count == 1 else 's'}"

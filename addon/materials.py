@@ -32,7 +32,7 @@ from ..native import SceneError, lightmap_atlas
 from ..native.postprocess import fill_gutter
 from . import node_trees
 from .display import STATE_KEY, strip_display_nodes
-from .writeback import hold_render_uv, image_pixels
+from .writeback import collection_array, hold_render_uv, image_pixels
 
 MATERIAL_SAMPLES = 32       # Cycles samples per texel of a material that varies
 # A material that cannot vary over a surface bakes SUPERSAMPLE x SUPERSAMPLE sub-texels a
@@ -379,14 +379,16 @@ def _joined(copies, bake):
     vertex_count = corner_count = 0
     for copy in copies:
         mesh, matrix = copy.obj.data, np.array(copy.obj.matrix_world, dtype=np.float64)
-        co = _attribute(mesh.vertices, "co", np.float32, 3).astype(np.float64)
+        co = collection_array(mesh.vertices, "co", np.float64, (-1, 3))
         positions.append(co @ matrix[:3, :3].T + matrix[:3, 3])
-        corners.append(_attribute(mesh.loops, "vertex_index", np.int32, 1) + vertex_count)
-        starts.append(_attribute(mesh.polygons, "loop_start", np.int32, 1) + corner_count)
+        corners.append(collection_array(mesh.loops, "vertex_index", np.int32, (-1,))
+                       + vertex_count)
+        starts.append(collection_array(mesh.polygons, "loop_start", np.int32, (-1,))
+                      + corner_count)
         # Blender clamps a face's slot to the mesh's last: here that would be the next copy's.
-        slots.append(np.minimum(_attribute(mesh.polygons, "material_index", np.int32, 1),
-                                len(mesh.materials) - 1) + len(materials))
-        uv.append(_attribute(mesh.uv_layers[BAKE_UV].uv, "vector", np.float32, 2))
+        slot = collection_array(mesh.polygons, "material_index", np.int32, (-1,))
+        slots.append(np.minimum(slot, len(mesh.materials) - 1) + len(materials))
+        uv.append(collection_array(mesh.uv_layers[BAKE_UV].uv, "vector", np.float32, (-1, 2)))
         materials += list(mesh.materials)
         vertex_count += len(mesh.vertices)
         corner_count += len(mesh.loops)
@@ -409,12 +411,6 @@ def _joined(copies, bake):
     obj = bpy.data.objects.new(TEMP_PREFIX + "Joined", joined)
     bake.objects.append(obj)
     return obj
-
-
-def _attribute(collection, name, dtype, components):
-    values = np.empty(len(collection) * components, dtype=dtype)
-    collection.foreach_get(name, values)
-    return values.reshape(-1, components) if components > 1 else values
 
 
 def _supersample(copy):

@@ -43,6 +43,15 @@ def irradiance_images(scene):
             if IRRADIANCE_KEY in image and image.name.startswith(image_name(scene, ""))}
 
 
+def collection_array(collection, attribute, dtype, shape):
+    """A Blender collection's ``attribute`` of every item (foreach_get) as an array of
+    ``shape`` (its first axis the items, -1 for their count)."""
+    width = int(np.prod(shape[1:])) if len(shape) > 1 else 1
+    flat = np.empty(len(collection) * width, dtype=dtype)
+    collection.foreach_get(attribute, flat)
+    return flat.reshape(shape)
+
+
 def image_pixels(image):
     """An image's pixels as an (H, W, 4) float32 array, row 0 at v = 0."""
     width, height = image.size
