@@ -180,10 +180,10 @@ def import_level(bpy, path):
         world.use_nodes = True
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (SKY, SKY, SKY, 1.0)
     world.color = (SKY,) * 3
+    scene.world = world
     # The sky lights the level but is not seen: a view compares lightmaps, and pixels of sky
     # (the same in both renders) made up to four fifths of a view's pixels within 10 %.
     world.cycles_visibility.camera = False
-    scene.world = world
     scene.render.engine = 'CYCLES'
     return scene
 
