@@ -469,3 +469,66 @@ def test_unique_rows_are_numpys_unique_rows(dtype):
         for mine, numpys in zip(ours, theirs):
             np.testing.assert_array_equal(mine, np.ravel(numpys) if mine.ndim == 1 else numpys)
     np.testing.assert_array_equal(unique_rows(rows), np.unique(rows, axis=0))
+
+
+def striped_floor_texels(ctx, **settings):
+    """A floor of four slanting sides, about 6 m across (its chart's border texels cover odd
+    parts of their squares), at 1 texel/m, under a sun and bars 0.25 m wide every 0.9 m that
+    stripe it with shadow. Per border texel of the floor (under 0.98 of its
+    square covered, 40 points or more): its irradiance after the sun's shot, and the mean
+    over the surface it covers, ray traced through the bars at 400 points a square metre."""
+    outline = np.array([(-3.0, -2.4), (3.2, -3.1), (2.6, 3.0), (-2.7, 2.3)])
+    builder = SceneBuilder()
+    builder.quad("floor", [(x, y, 0.0) for x, y in outline], (0.5,) * 3, two_sided=False)
+    bars = [((x, -5.0, 1.3), (x + 0.25, 5.0, 1.5)) for x in np.arange(-4.6, 4.6, 0.9)]
+    for index, (low, high) in enumerate(bars):
+        closed_block(builder, f"bar {index}", low, high, 0.5)
+    direction = np.array([0.3, 0.1, -1.0]) / np.linalg.norm([0.3, 0.1, -1.0])
+    scene = builder.build(lights=[SunLight(direction=tuple(direction), strength=1.0)])
+    images, samples, _, _, atlas = solve(scene, ctx, texel_density=1.0, max_shots=1,
+                                         **settings)
+    # The truth: a grid over the floor, each point lit where its way to the sun misses
+    # every bar (the slab test), binned into the texels its triangle's lightmap corners put
+    # it in.
+    grid = np.arange(-3.5, 3.5, 0.05) + 0.025
+    points = np.stack([*np.meshgrid(grid, grid), np.zeros((len(grid), len(grid)))],
+                      axis=-1).reshape(-1, 3)
+    to_sun = -direction
+    lit = np.ones(len(points), dtype=bool)
+    for low, high in bars:
+        near = (np.asarray(low) - points) / to_sun
+        far = (np.asarray(high) - points) / to_sun
+        entry = np.minimum(near, far).max(axis=1)
+        leave = np.maximum(near, far).min(axis=1)
+        lit &= ~((entry <= leave) & (leave > 0.0))
+    irradiance = np.where(lit, float(to_sun[2]), 0.0)
+    floor = np.flatnonzero(scene.object_index[atlas.triangles] == 0)
+    texel = np.full(len(points), -1)
+    for charted in floor:
+        corners = scene.vertices[scene.triangles[atlas.triangles[charted]]][:, :2]
+        edges = np.stack([corners[1] - corners[0], corners[2] - corners[0]], axis=1)
+        weights = np.linalg.solve(edges, (points[:, :2] - corners[0]).T).T
+        inside = (weights >= 0.0).all(axis=1) & (weights.sum(axis=1) <= 1.0)
+        at = atlas.texels[charted][0] + weights @ (atlas.texels[charted][1:]
+                                                  - atlas.texels[charted][0])
+        flat = np.floor(at[:, 1]).astype(int) * atlas.width + np.floor(at[:, 0]).astype(int)
+        texel[inside] = flat[inside]
+    page = int(atlas.page[floor[0]])
+    counts = np.bincount(texel[texel >= 0], minlength=atlas.width * atlas.height)
+    truth = (np.bincount(texel[texel >= 0], irradiance[texel >= 0],
+                         minlength=len(counts)) / np.maximum(counts, 1))
+    coverage = samples[page]["coverage"].reshape(-1)
+    border = samples[page]["occupied"].reshape(-1) & (coverage < 0.98) & (counts >= 40)
+    measured = images[page][..., 0].reshape(-1) * math.pi / 0.5
+    return measured[border], truth[border], float(to_sun[2])
+
+
+def test_border_texels_under_a_suns_stripes_take_their_surfaces_light(ctx, gl_clean):
+    """Border texels of a floor striped by shadows (striped_floor_texels) against the mean
+    of the sun's light over the surface each covers: the RMS difference in the sun's
+    irradiance. Tested at their sample point alone, border texels were all lit or all dark:
+    0.43 of it; at four points of their surface, 0.09."""
+    measured, truth, lit = striped_floor_texels(ctx)
+    assert len(truth) >= 12
+    assert ((truth > 0.05 * lit) & (truth < 0.95 * lit)).sum() >= 8   # partly shadowed
+    assert np.sqrt(np.mean((measured - truth) ** 2)) < 0.15 * lit
