@@ -42,8 +42,7 @@ NORMAL_STEPS = 1000
 def keep_open_parts(state):
     """Shrink each texel's area (the position map's w) to the surface it keeps and move its
     sample point off what it loses whole, on every page; a texel hidden whole gets area 0
-    and receives nothing. Returns {charted triangle: SurfacePoints} of the triangles it
-    tested, what they keep of each point (border_points.write)."""
+    and receives nothing."""
     scene, atlas = state.scene, state.packed
     points = {}     # charted triangle -> SurfacePoints, made as they are needed
 
@@ -60,7 +59,7 @@ def keep_open_parts(state):
     _share_coincident_faces(scene, atlas, planes, state.bounds.epsilon, points_of)
     found = [points[charted] for charted in sorted(points) if (points[charted].kept < 1).any()]
     if not found:
-        return points
+        return
     page = np.concatenate([np.full(len(f.texel), f.page) for f in found])
     texel, position, area, kept = (np.concatenate([getattr(f, name) for f in found])
                                    for name in ("texel", "position", "area", "kept"))
@@ -68,7 +67,6 @@ def keep_open_parts(state):
         here = page == index
         if (kept[here] < 1).any():
             _shrink(map_page, texel[here], position[here], area[here], kept[here])
-    return points
 
 
 def _bury_in_solids(scene, atlas, planes, points_of):
@@ -314,29 +312,6 @@ def _closed(welded):
 def _surface_points(scene, atlas, charted):
     """The SurfacePoints of each charted triangle of ``charted``: a grid in its texels, the
     points inside it."""
-    rows = surface_point_rows(scene, atlas, charted)
-    held = np.bincount(rows.owner, minlength=len(charted))
-    ends = np.cumsum(held)
-    return [SurfacePoints(page=int(atlas.page[triangle]), texel=rows.texel[start:end],
-                          position=rows.position[start:end], lifted=rows.lifted[start:end],
-                          area=rows.area[start:end], kept=np.ones(end - start))
-            for triangle, start, end in zip(charted, ends - held, ends)]
-
-
-@dataclass
-class PointRows:
-    """The grid points of many charted triangles (surface_point_rows), in their order."""
-    owner: np.ndarray       # (N,) index into the charted triangles asked for
-    texel: np.ndarray       # (N,) flat texel index on its page
-    position: np.ndarray    # (N, 3) world
-    lifted: np.ndarray      # (N, 3) LIFT of a texel in front of the surface
-    area: np.ndarray        # (N,) world area each stands for
-
-
-def surface_point_rows(scene, atlas, charted):
-    """PointRows of the charted triangles ``charted``: a grid of SAMPLES_PER_TEXEL^2 a texel
-    in each triangle's texels, the points inside it, each standing for an equal share of
-    its triangle's area."""
     step = 1.0 / SAMPLES_PER_TEXEL
     uv = atlas.texels[charted]
     low, high = np.floor(uv.min(axis=1)), np.ceil(uv.max(axis=1))
@@ -346,7 +321,7 @@ def surface_point_rows(scene, atlas, charted):
     world_area = 0.5 * np.linalg.norm(normal, axis=1)
     normal /= np.maximum(2.0 * world_area, 1e-30)[:, None]
     texel_size = np.sqrt(world_area / np.maximum(_uv_areas(uv), 1e-30))
-    parts = []
+    found = []
     counts = columns * rows
     for first, last in _ranges_at_once(np.zeros_like(counts), counts):
         part = np.arange(first, last)
@@ -358,18 +333,19 @@ def surface_point_rows(scene, atlas, charted):
         weights = _barycentric(uv[owner], at)
         inside = (weights > 0.0).all(axis=1)
         owner, at, weights = owner[inside], at[inside], weights[inside]
-        parts.append((owner, at, np.einsum("pc,pcj->pj", weights, corners[owner])))
-    if parts:
-        owner, at, position = (np.concatenate(values) for values in zip(*parts))
-    else:
-        owner, at, position = np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros((0, 3))
-    held = np.bincount(owner, minlength=len(charted))
-    return PointRows(
-        owner=owner,
-        texel=at[:, 1].astype(np.int64) * atlas.width + at[:, 0].astype(np.int64),
-        position=position,
-        lifted=position + (LIFT * texel_size[owner])[:, None] * normal[owner],
-        area=world_area[owner] / np.maximum(held[owner], 1))
+        position = np.einsum("pc,pcj->pj", weights, corners[owner])
+        held = np.bincount(owner - first, minlength=last - first)
+        for k, (start, end) in enumerate(zip(np.cumsum(held) - held, np.cumsum(held))):
+            triangle = first + k
+            found.append(SurfacePoints(
+                page=int(atlas.page[charted[triangle]]),
+                texel=(at[start:end, 1].astype(np.int64) * atlas.width
+                       + at[start:end, 0].astype(np.int64)),
+                position=position[start:end],
+                lifted=position[start:end] + LIFT * texel_size[triangle] * normal[triangle],
+                area=np.full(end - start, world_area[triangle] / max(end - start, 1)),
+                kept=np.ones(end - start)))
+    return found
 
 
 def _uv_areas(uv):

@@ -14,11 +14,10 @@ from .errors import GPUMemoryError
 # albedo + surface number
 # (RGBA16, 8 B: 16-bit fixed point holds 0.99 within 8e-6, where half floats' 0.99023 put
 # 2.4 % more light in a closed room of that albedo), the octahedral normal, its spread and
-# spread axis (RGBA16, 8 B), a border texel's four points (two RGBA16F, 16 B:
-# border_points.py) and the subdivision level (R8, 1 B). The rasterization depth
+# spread axis (RGBA16, 8 B) and the subdivision level (R8, 1 B). The rasterization depth
 # (4 B) and the albedo the lightmaps show (RGBA16, 8 B, read to the CPU) live only until the
 # irradiance is made.
-BYTES_PER_TEXEL = 4 * 16 + 4 + 8 + 8 + 16 + 1
+BYTES_PER_TEXEL = 4 * 16 + 4 + 8 + 8 + 1
 # And where the scene's glossy layers leave in lobes (lobes.needed), the directions the unshot
 # light came in from and those a receiver pass gathered (RGBA32F: sums as the unshot
 # radiance).

@@ -7,7 +7,7 @@ import math
 import moderngl
 import numpy as np
 
-from . import border_points, buried
+from . import buried
 from .errors import SettingsError
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
@@ -197,8 +197,6 @@ def set_constant_uniforms(state):
                  "u_emitting_surfaces": state.emitting_surfaces,
                  "u_visibility": 0, **{f"u_{name}": MAP_UNITS[name]
                                        for name in ("position", "normal", "material", "level")}}
-    gathering = {**receivers, **{f"u_{name}": MAP_UNITS[name]   # receiver_common.glsl
-                                 for name in border_points.MAPS}}
     constants = {
         "attributes": {"u_atlas_size": size, "u_albedo_texture": 0,
                        "u_emission_texture": 1, "u_reflectance_texture": 2},
@@ -212,8 +210,8 @@ def set_constant_uniforms(state):
         "nonlinear": {"u_resolution": float(state.map_size)},
         "hemisphere": {"u_resolution": float(state.map_size)},
         "hemisphere_tessellated": {"u_resolution": float(state.map_size)},
-        **{name: gathering for name in PATCH_PROGRAMS.values()},
-        "light": gathering,
+        **{name: receivers for name in PATCH_PROGRAMS.values()},
+        "light": receivers,
         "take": {"u_atlas_size": size},
         "gathered_power": {f"u_{name}": MAP_UNITS[name]
                            for name in ("gathered", "position", "material", "own_area")},
@@ -255,8 +253,6 @@ def allocate_page(gl, block, size, *, glossy_lobes):
         "material": gl.texture(size, 4, "nu2"),     # albedo, surface number
         "unshot": gl.texture(size, 4),              # radiance, texel size
         "level": gl.texture(size, 1, "nu1"),        # subdivision level
-        **{name: gl.texture(size, 4, "f2")          # a border texel's points
-           for name in border_points.MAPS},
     }
     if glossy_lobes:
         textures["incoming"] = gl.texture(size, 4)  # where the unshot light came from
@@ -357,7 +353,7 @@ def rasterize(state):
             page.textures[name] = gl.texture((atlas.width, atlas.height), 4)
         page.gather = gl.framebuffer([page.textures[name] for name in gathered])
     measure_surface(state, vaos, keys[starts, 0], starts, ends)
-    border_points.write(state, buried.keep_open_parts(state))
+    buried.keep_open_parts(state)
     for page in pages:
         with render_state(ctx, framebuffer=page.receivers,   # the unshot holds emission
                           color_mask=[(True,) * 4, (False,) * 4, (True,) * 4][

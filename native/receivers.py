@@ -15,7 +15,6 @@ import math
 import moderngl
 import numpy as np
 
-from . import border_points
 from .geometry import frame_around
 from .gpu import buffer_content, render_state, set_uniform
 from .scene import SpotLight, SunLight
@@ -318,7 +317,7 @@ def update(state, visibility, kind, sent, unshot_left, shooters=None, squares=No
     visibility.texture.use(location=0)
     for page, start, end in runs:
         page.gather.use()
-        page.use_maps("position", "normal", "material", "level", *border_points.MAPS)
+        page.use_maps("position", "normal", "material", "level")
         split = start + int(np.count_nonzero(~squares[chosen[start:end]]))
         draw_tiles(tiles.vaos[kind], start, split)
         if split < end:

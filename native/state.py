@@ -21,8 +21,7 @@ NO_SURFACE = (1e30, -1e30, 1e30, -1e30)
 # Texture units of the maps the receiver passes read (receiver_common.glsl, then
 # gathered_power.vert and deliver.frag), and of the visibility map on 0.
 MAP_UNITS = {"position": 1, "normal": 2, "material": 3, "level": 4, "gathered": 5,
-             "gathered_incoming": 6, "own_area": 8, "border_points": 9,
-             "border_points_more": 10}
+             "gathered_incoming": 6, "own_area": 8}
 # And of a pass's totals, which deliver.frag reads (receivers.update).
 TOTAL_UNITS = {"received": 0, "reflected": 7}
 

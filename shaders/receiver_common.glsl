@@ -7,11 +7,6 @@
 uniform sampler2D u_position;
 uniform sampler2D u_normal;
 uniform sampler2D u_level;     // subdivision level of the texel
-// A border texel's four points of its surface, two a map: offsets from its sample point in
-// the tangent plane of its normal, over the root of its area (border_points.py); zero
-// elsewhere.
-uniform sampler2D u_border_points;
-uniform sampler2D u_border_points_more;
 
 
 layout(location = 0) out vec4 out_irradiance;  // the irradiance the texel gathered
@@ -29,15 +24,10 @@ float receiver_surface;   // the number of the texel's surface, for visible_from
 // The texel's surface's normal at its sample point: its plane, against which visibility is
 // tested, whatever normal the texel gathers at (a curved texel gathers at two).
 vec3 receiver_normal;
-// The points of the receiving texel's surface (about its sample point) over which a gather
-// at its sample point takes visibility: four of its square (its steps to the next texels on
-// the page) or, at a chart's border, of the surface it covers; none where it gathers at
-// several points (subdivided, or next to the shooter). And within what height over its
-// plane a blocker hides points of its square that its sample point does not see
-// (visible_over_texel): a texel's side; none for a border texel's points, which are surface.
-bool texel_has_points = false;
-vec3 texel_points[4];
-float texel_reach = 0.0;
+// The receiving texel's square (its steps to the next texels on the page), over which a
+// gather at its sample point takes visibility; zero where it gathers at several points
+// (subdivided, or next to the shooter) or at a chart's border.
+vec3 texel_across = vec3(0.0), texel_along = vec3(0.0);
 // A texel's area within this share of its square's: its whole square is surface; and its
 // steps to its neighbours within this sine of its plane: the square is flat.
 const float COVERED = 0.02;
@@ -77,9 +67,9 @@ const vec2 ACROSS_TEXEL[4] = vec2[4](vec2(-0.125, -0.375), vec2(0.375, -0.125),
                                      vec2(0.125, 0.375), vec2(-0.375, 0.125));
 
 // How much of the receiving texel around 'point' the eye sees (visible_from_eye): with
-// 'over_square', the mean over its points (texel_points: ACROSS_TEXEL's of its square, or a
-// border texel's of its surface), not its sample point's alone. Cycles' bake of a texel, and
-// what the texel shows, is the mean over its surface: a sharp shadow's edge along a row of texels (a board's, a sill's under
+// 'over_square', the mean over ACROSS_TEXEL of its square (texel_across, texel_along), not
+// its sample point's alone. Cycles' bake of a texel, and what the texel shows, is the mean
+// over its surface: a sharp shadow's edge along a row of texels (a board's, a sill's under
 // the sun) left the whole row in shadow, or the whole row lit, where it is partly lit.
 // Points of the square see more than a hidden sample point only past a blocker more than
 // a texel in front of it: a wall standing on the surface crosses the square, and the light
@@ -87,11 +77,12 @@ const vec2 ACROSS_TEXEL[4] = vec2[4](vec2(-0.125, -0.375), vec2(0.375, -0.125),
 // visible_from_eye(), for llvmpipe's sake.
 float visible_over_texel(vec3 point, int first_layer, bool over_square) {
     vec3 normal = receiver_normal;
-    int last = over_square && texel_has_points ? 4 : 0;
-    float near = texel_reach;
+    int last = over_square && texel_across != vec3(0.0) ? 4 : 0;
+    float near = max(length(texel_across), length(texel_along));
     float centre = 0.0, seen = 0.0;
     for (int k = -1; k < last; ++k) {
-        vec3 at_point = point + (k < 0 ? vec3(0.0) : texel_points[k]);
+        vec2 at = k < 0 ? vec2(0.0) : ACROSS_TEXEL[k];
+        vec3 at_point = point + at.x * texel_across + at.y * texel_along;
         float visible = visible_from_eye(at_point, normal, receiver_surface, first_layer);
         if (k < 0) {
             centre = visible;
@@ -156,22 +147,6 @@ void main() {
         && steps_inside(texel, position, normal, receiver_surface, across, along);
     vec3 tangent = tangent_of(normal);
     vec3 bitangent = cross(normal, tangent);
-    vec3 square_points[4];
-    float reach = 0.0;
-    bool has_points = inside;
-    if (inside) {
-        for (int k = 0; k < 4; ++k)
-            square_points[k] = ACROSS_TEXEL[k].x * across + ACROSS_TEXEL[k].y * along;
-        reach = max(length(across), length(along));
-    } else if (pass_takes_squares()) {
-        vec4 offsets[2] = vec4[2](texelFetch(u_border_points, texel, 0),
-                                  texelFetch(u_border_points_more, texel, 0));
-        for (int k = 0; k < 4; ++k) {
-            vec2 at = side * (k % 2 == 0 ? offsets[k / 2].xy : offsets[k / 2].zw);
-            square_points[k] = at.x * tangent + at.y * bitangent;
-        }
-        has_points = offsets[0] != vec4(0.0) || offsets[1] != vec4(0.0);
-    }
     vec3 irradiance = vec3(0.0);
     vec4 incoming = vec4(0.0);
     for (int shooter = 0; shooter < shooter_count(); ++shooter) {
@@ -185,9 +160,9 @@ void main() {
         // light (receive_patch.frag, near_side).
         float near_side = in_near_field(position.xyz, side) ? side : 0.0;
         int split = near_side > 0.0 ? 1 : level_split;
-        texel_has_points = has_points && near_side == 0.0 && split == 1;
-        texel_points = square_points;
-        texel_reach = reach;
+        bool over_texel = inside && near_side == 0.0 && split == 1;
+        texel_across = over_texel ? across : vec3(0.0);
+        texel_along = over_texel ? along : vec3(0.0);
         int normals = spread < 1.0 && near_side == 0.0 ? 2 : 1;
         vec3 gathered = vec3(0.0);
         // One loop and one call site: a second inlined copy of irradiance_at() cost llvmpipe
