@@ -190,8 +190,9 @@ def import_level(bpy, path):
 
 def level_cameras(bpy, scene, count, resolution, seed=1):
     """``count`` cameras at eye height over floor points (upward faces, area-weighted, with
-    head room), each looking level-ish where the way to a surface is longest: what a player
-    sees across the level; not into the open sky, which shows no lightmap."""
+    head room, seeing the fronts of the faces around them), each looking level-ish where the
+    way to a surface is longest: what a player sees across the level; not into the open sky,
+    which shows no lightmap."""
     from mathutils import Vector
     depsgraph = bpy.context.evaluated_depsgraph_get()
     level = next(obj for obj in scene.objects if obj.type == 'MESH')
@@ -207,13 +208,17 @@ def level_cameras(bpy, scene, count, resolution, seed=1):
                           distance=HEAD_ROOM)[0]:
             continue
         eye = floor + Vector((0.0, 0.0, EYE_HEIGHT))
-        ways = []
+        ways, outside = [], False
         for angle in np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False):
             direction = Vector((math.cos(angle), math.sin(angle), -0.15)).normalized()
-            found, location = scene.ray_cast(depsgraph, eye, direction, distance=200.0)[:2]
+            found, location, normal = scene.ray_cast(depsgraph, eye, direction,
+                                                     distance=200.0)[:3]
             if found:
                 ways.append(((location - eye).length, direction))
-        if not ways:
+                outside |= normal.dot(direction) > 0.0
+        # On the level's outer shell, a floor point sees the backs of its walls, which
+        # Cycles lights and a lightmap leaves dark: half of pandora's views were such backs.
+        if outside or not ways:
             continue
         way, direction = max(ways, key=lambda item: item[0])
         candidates.append((way, eye, direction))
