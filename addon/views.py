@@ -28,12 +28,13 @@ LUXEL_VIEW_SAMPLES = 32
 class View:
     name: str
     source: str           # 'camera' or 'automatic'
-    cycles: np.ndarray    # (H, W, 3) linear radiance, top row first
+    cycles: np.ndarray    # (H, W, 3) linear radiance, top row first; None: not rendered
     luxel: np.ndarray
 
 
-def render_views(context, count, resolution, samples, bounces=32, seed=0):
-    """Render ``count`` views at ``resolution`` (width, height), Cycles at ``samples``."""
+def render_views(context, count, resolution, samples, bounces=32, seed=0, *, path_traced=True):
+    """Render ``count`` views at ``resolution`` (width, height), Cycles at ``samples``; with
+    ``path_traced`` False only the lightmaps' views (View.cycles None)."""
     scene = context.scene
     view_layer = context.view_layer
     restore = SettingsSnapshot(scene, (scene.cycles, scene.render, scene.render.image_settings,
@@ -55,9 +56,11 @@ def render_views(context, count, resolution, samples, bounces=32, seed=0):
                             + [(c, 'automatic') for c in automatic]):
             scene.camera = obj
             name = obj.name[len(TEMP_PREFIX):] if source == 'automatic' else obj.name
-            scene.luxel.show_baked = False
-            configure_cycles(scene, samples, bounces, seed)
-            cycles = _render(scene)
+            cycles = None
+            if path_traced:
+                scene.luxel.show_baked = False
+                configure_cycles(scene, samples, bounces, seed)
+                cycles = _render(scene)
             scene.luxel.show_baked = True
             configure_cycles(scene, min(samples, LUXEL_VIEW_SAMPLES), bounces, seed)
             luxel = _render(scene)

@@ -29,6 +29,9 @@ EYE_HEIGHT = 1.7
 HEAD_ROOM = 2.0
 CAMERA_CANDIDATES = 400
 VIEW_BOUNCES = 64        # every bounce that matters at albedo 0.8 (0.8^64 ~ 1e-6)
+# Cycles' own lightmap bakes each texel as the mean over this many x this many sub-texels:
+# the mean over its surface, as a Luxel texel holds it.
+LIGHTMAP_SUPERSAMPLE = 2
 
 
 def levels_folder():
@@ -119,7 +122,8 @@ def level_views(names, density, threshold, shots, views, samples, resolution):
     and sky of ``levels``), baked through the add-on, and seen from ``views`` cameras standing
     in it: each view rendered by Cycles path tracing every bounce and by Cycles showing
     Luxel's lightmaps, compared over the surfaces Cycles shows lit (not the sky): the mean,
-    and the share of pixels within 10 %."""
+    and the share of pixels within 10 %; and the same for Cycles' own lightmap of the level
+    at the density (cycles_lightmap_views), what detail finer than a texel leaves."""
     paths = level_paths(names)
     if not paths:
         return {"rows": []}
@@ -141,15 +145,21 @@ def level_views(names, density, threshold, shots, views, samples, resolution):
         started = time.perf_counter()
         rendered = views_module.render_views(bpy.context, len(cameras), tuple(resolution),
                                              samples, bounces=VIEW_BOUNCES)
+        render_seconds = time.perf_counter() - started
+        best = cycles_lightmap_views(bpy, luxel, scene, rendered, samples, tuple(resolution))
+        views = []
+        for view, shown in zip(rendered, best):
+            views.append({**compare_view(view), "cycles_lightmap": compare_view(shown)})
         row = {"level": path.stem, "texels": stats.texels, "shots": stats.shots,
                "unshot": stats.unshot / 100.0, "bake_seconds": bake_seconds,
-               "render_seconds": time.perf_counter() - started,
-               "views": [compare_view(view) for view in rendered]}
+               "render_seconds": render_seconds, "views": views}
         rows.append(row)
         for view in row["views"]:
+            best = view["cycles_lightmap"]
             print(f"{row['level']} {view['name']}: Luxel / Cycles mean "
                   f"{view['mean_ratio']:.3f}, {100 * view['within_10_percent']:.0f} % of "
-                  f"pixels within 10 %", flush=True)
+                  f"pixels within 10 %; Cycles' own lightmap {best['mean_ratio']:.3f}, "
+                  f"{100 * best['within_10_percent']:.0f} %", flush=True)
     return {"density": density, "threshold": threshold, "cycles_samples": samples,
             "resolution": list(resolution), "rows": rows}
 
@@ -239,6 +249,42 @@ def level_cameras(bpy, scene, count, resolution, seed=1):
     scene.camera = cameras[0]
     scene.render.resolution_x, scene.render.resolution_y = resolution
     return cameras
+
+
+def cycles_lightmap_views(bpy, luxel, scene, rendered, samples, resolution):
+    """The ``rendered`` views again, each lightmap page showing Cycles' own bake of its
+    objects into Luxel's texels (every bounce, each texel the mean over its surface, the
+    gutter filled as Luxel's) in place of Luxel's: what any lightmap of this density shows
+    at best, against the same path tracing. Luxel's pages come back afterwards."""
+    import importlib
+    views_module = importlib.import_module(luxel.__name__ + ".addon.views")
+    addon, fill_gutter = luxel.addon, luxel.native.postprocess.fill_gutter
+    padding = luxel.native.Settings().padding     # the add-on's bakes chart at the default
+    objects = [obj for obj in scene.objects if obj.type == 'MESH' and obj.luxel.image]
+    baked = addon.reference.cycles_reference(bpy.context, samples=samples, bounces=VIEW_BOUNCES,
+                                             objects=objects, supersample=LIGHTMAP_SUPERSAMPLE)
+    pages = {}
+    for obj in objects:
+        image = obj.luxel.image
+        page = pages.setdefault(image.name, (image, np.zeros((image.size[1], image.size[0], 4),
+                                                              np.float32)))[1]
+        texels = baked[obj.name][..., 3] > 0.0
+        page[texels] = baked[obj.name][texels]
+    own = {name: addon.writeback.image_pixels(image).copy() for name, (image, _) in pages.items()}
+    try:
+        for image, page in pages.values():
+            fill_gutter(page, padding + 1)
+            page[..., 3] = 1.0
+            image.pixels.foreach_set(page.ravel())
+            image.update()
+        shown = views_module.render_views(bpy.context, len(rendered), resolution, samples,
+                                          bounces=VIEW_BOUNCES, path_traced=False)
+    finally:
+        for name, (image, _) in pages.items():
+            image.pixels.foreach_set(own[name].ravel())
+            image.update()
+    return [views_module.View(view.name, view.source, view.cycles, best.luxel)
+            for view, best in zip(rendered, shown)]
 
 
 def compare_view(view):

@@ -494,17 +494,20 @@ def levels_lines(results):
 
 
 def level_views_lines(results):
+    def shown(views):
+        return "; ".join(f"{view['mean_ratio']:.3f}, {percent(view['within_10_percent'], 0)}"
+                         for view in views)
     rows = []
     for row in results["rows"]:
-        views = "; ".join(f"{view['mean_ratio']:.3f}, {percent(view['within_10_percent'], 0)}"
-                          for view in row["views"])
+        best = [view.get("cycles_lightmap") for view in row["views"]]
+        views, best = shown(row["views"]), "-" if None in best else shown(best)
         rows.append([row["level"], count(row["texels"]), count(row["shots"]),
-                     percent(row["unshot"]),
-                     f"{row['bake_seconds']:.0f}", views])
+                     percent(row["unshot"]), f"{row['bake_seconds']:.0f}", views, best])
     return [f"{results['density']:g} texels/m; Cycles {results['cycles_samples']} samples a "
             f"pixel at {results['resolution'][0]} x {results['resolution'][1]}:", ""] + table(
         ["level", "texels", "shots", "unshot", "bake s",
-         "each view: Luxel / Cycles mean, pixels within 10 %"], rows, "lrrrrl")
+         "each view: Luxel / Cycles mean, pixels within 10 %",
+         "the same for Cycles' own lightmap"], rows, "lrrrrll")
 
 
 TABLES = {
