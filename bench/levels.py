@@ -146,7 +146,8 @@ def level_views(names, density, threshold, shots, views, samples, resolution):
         rendered = views_module.render_views(bpy.context, len(cameras), tuple(resolution),
                                              samples, bounces=VIEW_BOUNCES)
         render_seconds = time.perf_counter() - started
-        best = cycles_lightmap_views(bpy, luxel, scene, rendered, samples, tuple(resolution))
+        best = cycles_lightmap_views(bpy, luxel, views_module, scene, rendered, samples,
+                                     tuple(resolution))
         views = []
         for view, shown in zip(rendered, best):
             views.append({**compare_view(view), "cycles_lightmap": compare_view(shown)})
@@ -251,13 +252,11 @@ def level_cameras(bpy, scene, count, resolution, seed=1):
     return cameras
 
 
-def cycles_lightmap_views(bpy, luxel, scene, rendered, samples, resolution):
+def cycles_lightmap_views(bpy, luxel, views_module, scene, rendered, samples, resolution):
     """The ``rendered`` views again, each lightmap page showing Cycles' own bake of its
     objects into Luxel's texels (every bounce, each texel the mean over its surface, the
     gutter filled as Luxel's) in place of Luxel's: what any lightmap of this density shows
     at best, against the same path tracing. Luxel's pages come back afterwards."""
-    import importlib
-    views_module = importlib.import_module(luxel.__name__ + ".addon.views")
     addon, fill_gutter = luxel.addon, luxel.native.postprocess.fill_gutter
     padding = luxel.native.Settings().padding     # the add-on's bakes chart at the default
     objects = [obj for obj in scene.objects if obj.type == 'MESH' and obj.luxel.image]
