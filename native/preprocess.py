@@ -211,7 +211,9 @@ def set_constant_uniforms(state):
         "hemisphere": {"u_resolution": float(state.map_size)},
         "hemisphere_tessellated": {"u_resolution": float(state.map_size)},
         **{name: receivers for name in PATCH_PROGRAMS.values()},
-        "light": receivers,
+        # A light's shadows are sharp, taken over each texel's square: the vote, which only
+        # ever adds light, lit texels a roof's or a step's edge shadows within a map texel.
+        "light": {**receivers, "u_neighbour_visibility": 0},
         "take": {"u_atlas_size": size},
         "gathered_power": {f"u_{name}": MAP_UNITS[name]
                            for name in ("gathered", "position", "material", "own_area")},

@@ -35,10 +35,11 @@ struct Tolerance {
 };
 
 // Whether the map texel, holding 'stored_texel' (visibility_store.glsl), lets the receiver
-// (local point, local normal, distance 'own', its surface's number) be seen. Either its own distance is within the tolerance of the stored
-// one, or the texel's centre ray meets the receiver's plane no farther than the stored
-// distance and near the receiver: a receiver seen at a grazing angle then never shadows
-// itself, however steep, while a wall's far side, or the same floor past a wall, stays dark.
+// (local point, local normal, distance 'own', its surface's number) be seen. Either its own
+// distance is within the tolerance of the stored one, or the texel's centre ray meets the
+// receiver's plane at the stored distance and near the receiver: a receiver seen at a
+// grazing angle then never shadows itself, however steep, while a wall's far side, or the
+// same floor past a wall, stays dark.
 bool texel_sees(ivec3 texel, vec2 stored_texel, vec3 point, vec3 normal, float own,
                 uint surface, Tolerance tolerance) {
     float stored = stored_texel.r;
@@ -62,7 +63,10 @@ bool texel_sees(ivec3 texel, vec2 stored_texel, vec3 point, vec3 normal, float o
     if (same_surface && own <= stored + tolerance.own_surface
         && distance(origin + stored * direction, point) <= tolerance.reach) return true;
     if (facing == 0.0) return false;
-    return along > 0.0 && along <= stored + u_epsilon
+    // Only where the map holds a surface at that meeting point, in the receiver's plane:
+    // a ray past the edge of the receiver's surface (a step under the next one, a wall's top
+    // under a roof) meets the plane in the open, and lit what the edge shadows.
+    return along > 0.0 && abs(along - stored) <= u_epsilon
         && distance(origin + along * direction, point) <= tolerance.reach;
 }
 
