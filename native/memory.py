@@ -7,6 +7,7 @@ import numpy as np
 from . import lobes
 from .atlas import charted_triangles
 from .errors import GPUMemoryError
+from .state import SUN_FACES
 
 # Per texel (see preprocess.allocate_page): position + area, irradiance, unshot radiance +
 # texel size, and what a receiver pass gathered before it is added (RGBA32F, 16 B each: sums
@@ -56,8 +57,9 @@ def memory_needed(atlas, settings, map_size, batch=1, *, texel_bytes=BYTES_PER_T
 
 def visibility_layers(settings, batch):
     """The visibility map's layers: a hemicube's six faces per shooter of the batch (a
-    light's view all round takes six too), or the hemisphere projections' two."""
-    return 6 * batch if settings.projection == "HEMICUBE" else 2
+    light's view all round takes six too, a sun's tiles SUN_FACES of them), or for the
+    hemisphere projections the more of their two and a sun's tiles."""
+    return 6 * batch if settings.projection == "HEMICUBE" else max(2, SUN_FACES)
 
 
 def receiver_batch(atlas, settings, map_size, *, texel_bytes=BYTES_PER_TEXEL):

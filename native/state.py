@@ -24,6 +24,10 @@ MAP_UNITS = {"position": 1, "normal": 2, "material": 3, "level": 4, "gathered": 
              "gathered_incoming": 6, "own_area": 8}
 # And of a pass's totals, which deliver.frag reads (receivers.update).
 TOTAL_UNITS = {"received": 0, "reflected": 7}
+# The sun's orthographic window is cut into SUN_TILES x SUN_TILES faces of the visibility
+# map (projection.glsl): a level's window spans hundreds of metres.
+SUN_TILES = 2
+SUN_FACES = SUN_TILES ** 2
 
 
 @dataclass

@@ -11,14 +11,13 @@ import numpy as np
 from . import memory
 from .geometry import TrianglePlanes
 from .gpu import render_state, set_uniform
-from .state import VisibilityMap
+from .state import SUN_FACES, SUN_TILES, VisibilityMap
 
 # How many cube faces a view draws (render): the hemicube in front of a shooter, all round a
-# point light, the sun's one orthographic window. Hemisphere projections draw the front
-# hemisphere, or both for ALL_FACES.
+# point light, the tiles of the sun's orthographic window (state.SUN_FACES). Hemisphere
+# projections draw the front hemisphere, or both for ALL_FACES.
 FRONT_FACES = 5
 ALL_FACES = 6
-SUN_FACES = 1
 # The map starts at this distance everywhere (nothing drawn), and a texel under
 # DRAWN_DISTANCE holds something.
 CLEAR_DISTANCE = 3.0e38
@@ -122,6 +121,18 @@ def _reaching(visibility, eye, normals):
     return middle @ normals.T + half @ np.abs(normals).T >= 0.0
 
 
+def _sun_tiles_reached(visibility, view, half_width):
+    """(C, SUN_FACES): whether each cluster's bounds reach each tile of the sun's window
+    (``half_width`` its half side; projection.glsl's face_clip)."""
+    middle = (0.5 * (visibility.cluster_high + visibility.cluster_low) - view.eye) @ view.frame
+    half = 0.5 * (visibility.cluster_high - visibility.cluster_low) @ np.abs(view.frame)
+    side = 2.0 * half_width / SUN_TILES
+    low = -half_width + side * np.arange(SUN_TILES)
+    reached = [(middle[:, axis, None] + half[:, axis, None] >= low)
+               & (middle[:, axis, None] - half[:, axis, None] <= low + side) for axis in (0, 1)]
+    return (reached[0][:, None, :] & reached[1][:, :, None]).reshape(len(middle), -1)
+
+
 def _face_normals(view, faces):
     """(faces, 4, 3): the world normals of the four planes through the eye that bound each of
     the first ``faces`` cube faces, pointing into it."""
@@ -201,8 +212,9 @@ def _draw(state, visibility, view, *, faces, clip_below, first_layer):
     above = view.frame[:, 2][None, :] if clip_below else np.zeros((0, 3))
     if not per_face:
         draws = [(None, _reaching(visibility, view.eye, above).all(axis=1))]
-    elif view.orthographic:   # the sun's one face covers the scene
-        draws = [(0, _reaching(visibility, view.eye, above).all(axis=1))]
+    elif view.orthographic:   # the sun's tiles cover the scene
+        in_tiles = _sun_tiles_reached(visibility, view, state.bounds.radius)
+        draws = [(face, in_tiles[:, face]) for face in range(faces)]
     else:
         sides = _face_normals(view, faces)
         reach = _reaching(visibility, view.eye, np.concatenate([above, sides.reshape(-1, 3)]))
@@ -220,17 +232,18 @@ def _draw(state, visibility, view, *, faces, clip_below, first_layer):
 
 
 def covered_shares(state, visibility, count):
-    """(count,) the share of the texels that something was drawn into, of the first layer
-    of each of the first ``count`` views of a batch (render_batch): the suns' windows the
-    scene covers. Counted on the GPU (covered_share.vert), COUNTED_TEXELS a point: reading
-    the maps back took longer than drawing them."""
-    rows = max(1, COUNTED_TEXELS // state.map_size)
+    """(count,) the share of the texels that something was drawn into, of the SUN_FACES
+    layers of each of the first ``count`` views of a batch (render_batch): the suns' windows
+    the scene covers. Counted on the GPU (covered_share.vert), COUNTED_TEXELS a point:
+    reading the maps back took longer than drawing them."""
+    rows = max(1, COUNTED_TEXELS // (state.map_size * SUN_FACES))
     bands = -(-state.map_size // rows)
     set_uniform(state.programs["covered"], "u_rows", rows)
+    set_uniform(state.programs["covered"], "u_faces", SUN_FACES)
     visibility.texture.use(location=0)
     visibility.covered_framebuffer.clear(0.0, 0.0, 0.0, 0.0)
     visibility.covered_framebuffer.use()
     with render_state(state.ctx, blend=moderngl.FUNC_ADD):
         visibility.vaos["covered"].render(moderngl.POINTS, vertices=count * bands)
     counts = np.frombuffer(visibility.covered.read(), dtype="f4").reshape(-1, 4)[:count, 0]
-    return counts / state.map_size ** 2
+    return counts / (SUN_FACES * state.map_size ** 2)

@@ -1,6 +1,6 @@
 #version 410
 // How many texels of each sun's window something was drawn into (visibility.covered_shares):
-// the i-th sun of a batch counts the first layer of its map (layer 6 i,
+// the i-th sun of a batch counts the u_faces layers of its tiles (from layer 6 i,
 // visibility.render_batch) into pixel i of a row, a band of u_rows rows per point, the
 // bands summed by blending (llvmpipe ends a loop after 65535 turns, nested ones counted
 // together). Read back as a handful of numbers, not the maps.
@@ -8,6 +8,7 @@ uniform sampler2DArray u_visibility;
 uniform float u_drawn;      // a map texel under this distance holds something
 uniform int u_pixels;       // the row's width
 uniform int u_rows;         // the rows each point counts
+uniform int u_faces;        // the layers of each sun's map
 flat out float v_covered;
 
 void main() {
@@ -16,9 +17,12 @@ void main() {
     int sun = gl_VertexID / bands;
     int first = (gl_VertexID % bands) * u_rows;
     float covered = 0.0;   // exact: a map has far fewer than 2^24 texels
-    for (int y = first; y < min(first + u_rows, size.y); ++y) {
-        for (int x = 0; x < size.x; ++x) {
-            if (texelFetch(u_visibility, ivec3(x, y, 6 * sun), 0).r < u_drawn) covered += 1.0;
+    for (int face = 0; face < u_faces; ++face) {
+        for (int y = first; y < min(first + u_rows, size.y); ++y) {
+            for (int x = 0; x < size.x; ++x) {
+                if (texelFetch(u_visibility, ivec3(x, y, 6 * sun + face), 0).r < u_drawn)
+                    covered += 1.0;
+            }
         }
     }
     v_covered = covered;

@@ -1,6 +1,9 @@
 // Views used for visibility. A cube of six 90-degree faces around the eye in the shooter's
 // frame (t, b, n): face 0 looks along +n, faces 1-4 along +-t and +-b with n up, face 5 along -n.
-// The hemicube is faces 0-4. In orthographic mode (the sun) there is one face looking along +n.
+// The hemicube is faces 0-4. In orthographic mode (the sun) the window looking along +n is cut
+// into SUN_TILES x SUN_TILES faces, face tx + SUN_TILES ty its tile (tx, ty) from (-t, -b): a
+// level's window spans hundreds of metres, and one face's texels let the sun past steps and
+// ledges narrower than them.
 // The hemisphere projections use two layers instead: 0 the hemisphere around +n, 1 around -n,
 // each projected stereographically onto the unit disc.
 #ifdef VIEW_PER_SHOOTER
@@ -18,6 +21,8 @@ uniform float u_near;
 uniform float u_far;
 uniform int u_hemisphere;    // 1: the map holds stereographic hemispheres, not cube faces
 
+const int SUN_TILES = 2;   // state.SUN_TILES
+
 const vec3 FACE_FORWARD[6] = vec3[6](vec3(0, 0, 1), vec3(1, 0, 0), vec3(-1, 0, 0),
                                      vec3(0, 1, 0), vec3(0, -1, 0), vec3(0, 0, -1));
 const vec3 FACE_RIGHT[6] = vec3[6](vec3(1, 0, 0), vec3(0, 1, 0), vec3(0, -1, 0),
@@ -27,14 +32,22 @@ const vec3 FACE_UP[6] = vec3[6](vec3(0, 1, 0), vec3(0, 0, 1), vec3(0, 0, 1),
 
 vec3 to_local(vec3 world) { return transpose(u_frame) * (world - u_eye); }
 
+// Half the width of one of the sun's tiles, and the middle of tile 'face' in the window.
+float sun_tile_half() { return u_ortho_half / float(SUN_TILES); }
+vec2 sun_tile_middle(int face) {
+    vec2 tile = vec2(face % SUN_TILES, face / SUN_TILES);
+    return (2.0 * tile + 1.0) * sun_tile_half() - u_ortho_half;
+}
+
 // Clip-space position of a local point on a face.
 vec4 face_clip(vec3 local, int face) {
+    if (u_orthographic != 0) {
+        vec2 xy = (local.xy - sun_tile_middle(face)) / sun_tile_half();
+        return vec4(xy, 2.0 * (local.z - u_near) / (u_far - u_near) - 1.0, 1.0);
+    }
     float x = dot(local, FACE_RIGHT[face]);
     float y = dot(local, FACE_UP[face]);
     float z = dot(local, FACE_FORWARD[face]);
-    if (u_orthographic != 0) {
-        return vec4(x / u_ortho_half, y / u_ortho_half, 2.0 * (z - u_near) / (u_far - u_near) - 1.0, 1.0);
-    }
     return vec4(x, y, (z * (u_far + u_near) - 2.0 * u_far * u_near) / (u_far - u_near), z);
 }
 
@@ -44,7 +57,11 @@ float view_distance(vec3 local) {
 }
 
 int face_of(vec3 local) {
-    if (u_orthographic != 0) return 0;
+    if (u_orthographic != 0) {
+        ivec2 tile = clamp(ivec2(floor((local.xy + u_ortho_half) / (2.0 * sun_tile_half()))),
+                           ivec2(0), ivec2(SUN_TILES - 1));
+        return tile.x + SUN_TILES * tile.y;
+    }
     vec3 a = abs(local);
     if (a.z >= a.x && a.z >= a.y) return local.z >= 0.0 ? 0 : 5;
     if (a.x >= a.y) return local.x >= 0.0 ? 1 : 2;

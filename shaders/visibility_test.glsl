@@ -14,7 +14,7 @@ void texel_ray(ivec3 texel, out vec3 origin, out vec3 direction) {
     vec2 p = (vec2(texel.xy) + 0.5) / u_resolution * 2.0 - 1.0;
     origin = vec3(0.0);
     if (u_orthographic != 0) {
-        origin = vec3(p * u_ortho_half, 0.0);
+        origin = vec3(sun_tile_middle(texel.z) + p * sun_tile_half(), 0.0);
         direction = vec3(0.0, 0.0, 1.0);
     } else if (u_hemisphere != 0) {
         direction = hemisphere_local(inverse_stereographic(p), texel.z);
@@ -97,7 +97,7 @@ float visible_from_eye(vec3 world, vec3 normal, float surface, int first_layer) 
         vec4 clip = face_clip(local, face);
         vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
         texel = ivec3(clamp(ivec2(uv * u_resolution), ivec2(0), ivec2(last)), face);
-        footprint = u_orthographic != 0 ? 2.0 * u_ortho_half / u_resolution
+        footprint = u_orthographic != 0 ? 2.0 * sun_tile_half() / u_resolution
                                         : own * 2.0 / u_resolution;
     }
     // Slope-scaled tolerance: across one visibility texel a surface seen at a grazing angle
