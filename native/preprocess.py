@@ -211,9 +211,7 @@ def set_constant_uniforms(state):
         "hemisphere": {"u_resolution": float(state.map_size)},
         "hemisphere_tessellated": {"u_resolution": float(state.map_size)},
         **{name: receivers for name in PATCH_PROGRAMS.values()},
-        # A light's shadows are sharp, taken over each texel's square: the vote, which only
-        # ever adds light, lit texels a roof's or a step's edge shadows within a map texel.
-        "light": {**receivers, "u_neighbour_visibility": 0},
+        "light": receivers,
         "take": {"u_atlas_size": size},
         "gathered_power": {f"u_{name}": MAP_UNITS[name]
                            for name in ("gathered", "position", "material", "own_area")},

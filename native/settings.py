@@ -240,9 +240,9 @@ SETTINGS = (
             help="A receiver whose visibility texel an occluder within a map texel of it "
             "covers (a silhouette it stands at) gets the share of the 3x3 texels around that "
             "see it, against dark speckles where the map undersamples; shadows cast from "
-            "farther keep their edges. Shooting texels only: lights' shadows are taken over "
-            "each texel's square. Parts touching a floor in a furnace, hemicube 64: "
-            "worst texel 14 % off instead of 18 %",
+            "farther keep their edges, and under an overhang (a roof over a wall's top) only "
+            "texels that see the receiver's side of its plane count. Parts touching a floor "
+            "in a furnace, hemicube 64: worst texel 14 % off instead of 18 %",
             exposed=Exposed(label="Neighbour Visibility", option="--neighbour-visibility",
                             trades="Fewer dark speckles at silhouettes against more map reads per "
                                    "shadowed receiver")),

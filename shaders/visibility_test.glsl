@@ -41,7 +41,7 @@ struct Tolerance {
 // grazing angle then never shadows itself, however steep, while a wall's far side, or the
 // same floor past a wall, stays dark.
 bool texel_sees(ivec3 texel, vec2 stored_texel, vec3 point, vec3 normal, float own,
-                uint surface, Tolerance tolerance) {
+                uint surface, Tolerance tolerance, bool overhung) {
     float stored = stored_texel.r;
     uint stored_key = floatBitsToUint(stored_texel.g) & 0x1FFFu;
     uint stored_surface = stored_key & 0xFFFu;
@@ -57,7 +57,12 @@ bool texel_sees(ivec3 texel, vec2 stored_texel, vec3 point, vec3 normal, float o
     if (!same_surface && !receiver_emits && stored_key >= 1u
         && stored_key <= uint(u_emitting_surfaces) && abs(along - stored) <= u_epsilon)
         return false;
-    if (own <= stored + tolerance.other) return true;
+    // A ray that reaches the receiver's depth unblocked sees it; but where what hides the
+    // receiver's own map texel stands in front of its plane ('overhung': a roof over a
+    // wall's top, the step above), not one that met the plane before that depth: it passed
+    // the overhang's edge in the open and reached the depth on the far side of the surface.
+    bool crossed_in_the_open = facing < 0.0 && along < own - tolerance.other;
+    if ((!overhung || !crossed_in_the_open) && own <= stored + tolerance.other) return true;
     // The own surface, seen where the map texel's ray meets it near the receiver: a floor
     // seen past a wall standing on it is the same surface, but not near.
     if (same_surface && own <= stored + tolerance.own_surface
@@ -123,17 +128,24 @@ float visible_from_eye(vec3 world, vec3 normal, float surface, int first_layer) 
     // vote lit the slot's shadowed side. One loop and one call site of texel_sees(), for
     // llvmpipe's sake as in receiver_common.glsl.
     float seen = 0.0;
+    bool overhung = false;
     int last_neighbour = u_neighbour_visibility != 0 ? 9 : 0;
     for (int k = -1; k < last_neighbour; ++k) {
         ivec2 offset = k < 0 ? ivec2(0) : ivec2(k % 3 - 1, k / 3 - 1);
         ivec3 n = ivec3(clamp(texel.xy + offset, ivec2(0), ivec2(last)), texel.z);
         vec2 stored = texelFetch(u_visibility, ivec3(n.xy, first_layer + n.z), 0).rg;
-        bool sees = texel_sees(n, stored, local, local_normal, own, own_surface, tolerance);
+        bool sees = texel_sees(n, stored, local, local_normal, own, own_surface, tolerance,
+                               overhung);
         if (k < 0) {
             last_map_texel = n;
             last_map_distance = stored.r;
             if (sees) return 1.0;
             if (own - stored.r > 2.0 * tolerance.reach) return 0.0;
+            // Whether what hides the receiver's own texel stands in front of its plane, not at
+            // or behind it (the edge of the block it is the side of), for the 3x3 after it.
+            vec3 origin, direction;
+            texel_ray(n, origin, direction);
+            overhung = dot(local_normal, origin + stored.r * direction - local) > u_epsilon;
         } else if (sees) {
             seen += 1.0;
         }
