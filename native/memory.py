@@ -1,12 +1,13 @@
 """The memory budget: how much GPU memory an atlas's maps take, and the refusal, with a
-density that fits, of an atlas over Settings.memory_limit or the largest texture size."""
+density that fits, of an atlas over Settings.memory_limit or the largest texture size; and
+of a visibility map larger than one texture may hold."""
 import math
 
 import numpy as np
 
 from . import lobes
 from .atlas import charted_triangles
-from .errors import GPUMemoryError
+from .errors import GPUMemoryError, SettingsError
 from .state import SUN_FACES
 
 # Per texel (see preprocess.allocate_page): position + area, irradiance, unshot radiance +
@@ -31,6 +32,9 @@ PYRAMID_TEXEL_BYTES = 16
 VISIBILITY_BYTES_PER_TEXEL = 2 * 4
 # The most shooters one receiver pass gathers.
 MOST_BATCHED_SHOOTERS = 8
+# The most bytes one texture may hold: llvmpipe leaves the framebuffer of a 1.5 GiB texture
+# incomplete, and a driver bounds one allocation below its whole memory.
+MAX_TEXTURE_BYTES = 1 << 30
 # A search for a density that fits steps down by this factor, at most this many times.
 DENSITY_STEP = 0.85
 DENSITY_STEPS = 30
@@ -51,8 +55,12 @@ def memory_needed(atlas, settings, map_size, batch=1, *, texel_bytes=BYTES_PER_T
     texels = atlas.width * atlas.height * atlas.page_count
     block = 1 << settings.shoot_level
     pyramid = texels / (block * block) * PYRAMID_TEXEL_BYTES * 4 / 3
-    visibility = map_size ** 2 * visibility_layers(settings, batch) * VISIBILITY_BYTES_PER_TEXEL
-    return int(texels * texel_bytes + pyramid + visibility)
+    return int(texels * texel_bytes + pyramid + visibility_bytes(settings, map_size, batch))
+
+
+def visibility_bytes(settings, map_size, batch):
+    """Bytes of the visibility map of a receiver pass of ``batch`` shooters: one texture."""
+    return map_size ** 2 * visibility_layers(settings, batch) * VISIBILITY_BYTES_PER_TEXEL
 
 
 def visibility_layers(settings, batch):
@@ -64,7 +72,8 @@ def visibility_layers(settings, batch):
 
 def receiver_batch(atlas, settings, map_size, *, texel_bytes=BYTES_PER_TEXEL):
     """How many shooters one receiver pass gathers: those of a selection, at most
-    MOST_BATCHED_SHOOTERS, as many as the memory limit leaves room for their visibility maps.
+    MOST_BATCHED_SHOOTERS, as many as the memory limit leaves room for their visibility maps
+    and one texture holds.
     One with Settings.batched_receivers off, with a hemisphere projection (the batch's maps
     are hemicubes) and with adaptive subdivision (which tests each shot's shadows against its
     map before the receivers gather it)."""
@@ -72,10 +81,28 @@ def receiver_batch(atlas, settings, map_size, *, texel_bytes=BYTES_PER_TEXEL):
             or settings.subdivision == "ADAPTIVE"):
         return 1
     batch = min(settings.shooters_per_selection, MOST_BATCHED_SHOOTERS)
-    while batch > 1 and memory_needed(atlas, settings, map_size, batch,
-                                      texel_bytes=texel_bytes) > settings.memory_limit:
+    while batch > 1 and (memory_needed(atlas, settings, map_size, batch,
+                                       texel_bytes=texel_bytes) > settings.memory_limit
+                         or visibility_bytes(settings, map_size, batch) > MAX_TEXTURE_BYTES):
         batch -= 1
     return batch
+
+
+def check_visibility_map(settings, map_size):
+    """Refuse a Hemicube Resolution whose visibility map, for one shooter, is larger than
+    one texture may hold (no texel density changes it), naming the largest that fits."""
+    needed = visibility_bytes(settings, map_size, 1)
+    if needed <= MAX_TEXTURE_BYTES:
+        return
+    resolution = settings.hemicube_resolution
+    scale = map_size // resolution
+    while resolution > 1 and visibility_bytes(settings, resolution * scale, 1) > MAX_TEXTURE_BYTES:
+        resolution //= 2
+    raise SettingsError(
+        f"Hemicube Resolution {settings.hemicube_resolution} makes a visibility map of "
+        f"{needed / 2**20:,.0f} MiB, more than one GPU texture may hold "
+        f"({MAX_TEXTURE_BYTES / 2**20:,.0f} MiB): set it to {resolution} or lower, or to 0 "
+        f"(automatic)")
 
 
 def fits(atlas, settings, map_size, max_texture_size, *, texel_bytes=BYTES_PER_TEXEL):

@@ -77,6 +77,7 @@ def pieces(scene, settings, ctx, gl):
         map_size=preprocess.visibility_map_size(settings, scene),
         surfaces=surfaces, emitting_surfaces=emitting_surfaces,
         glossy=lobes.has_glossy(scene), glossy_lobes=lobes.needed(scene))
+    memory.check_visibility_map(settings, state.map_size)
     texel_bytes = memory.bytes_per_texel(scene)
 
     def fits_at(density):

@@ -5,6 +5,7 @@ import os
 import numpy as np
 import pytest
 
+import analytic
 import scenes
 from native import (GLUnavailableError, GPUMemoryError, PointLight, Scene, SceneError,
                     Settings, SettingsError, Solver, SpotLight, SunLight, read_exr, tone_map,
@@ -88,6 +89,29 @@ def test_too_many_texels_reports_memory_and_a_density_that_fits(ctx, gl_clean):
     solver = Solver(scene, Settings(texel_density=suggested, memory_limit=limit), ctx=ctx)
     assert solver.gpu_memory_bytes <= limit
     solver.release()
+
+
+def test_a_large_hemicube_bakes_and_a_map_too_large_is_refused_by_name(ctx, gl_clean):
+    """A batch's visibility maps are one texture: at Hemicube Resolution 2048 eight shooters'
+    cubes would be 1.5 GiB, and OpenGL left its framebuffer incomplete. The batch is cut to
+    what one texture holds, and the bake matches the closed form; a hemisphere map that no
+    batch makes small enough is refused naming the setting and a value that fits."""
+    radiance, albedo = np.array([1.0, 1.0, 1.0]), 0.5
+    with Solver(scenes.parallel_squares(radiance, albedo),
+                Settings(texel_density=8, hemicube_resolution=2048, threshold=0.001,
+                         ambient=False), ctx=ctx) as solver:
+        solver.run()
+        image, samples = solver.result()[0], solver.texel_samples()[0]
+    on_receiver = (samples["occupied"] & (np.abs(samples["position"][..., 2]) < 1e-5)
+                   & (samples["normal"][..., 2] > 0.99))
+    area = samples["area"][on_receiver]
+    mean = (image[on_receiver, :3] * area[:, None]).sum(axis=0) / area.sum()
+    truth = albedo * radiance * analytic.parallel_squares_form_factor(1, 1)
+    np.testing.assert_allclose(mean, truth, rtol=0.01)
+    assert ctx.error == "GL_NO_ERROR"
+    with pytest.raises(SettingsError, match="Hemicube Resolution 4096.*set it to 2048"):
+        Solver(scenes.parallel_squares(radiance, albedo),
+               Settings(projection="HEMISPHERE", hemicube_resolution=4096), ctx=ctx)
 
 
 def test_an_absurd_density_is_refused_before_xatlas_charts_it(ctx, gl_clean, monkeypatch):
