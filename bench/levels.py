@@ -117,13 +117,15 @@ def levels(names, density, threshold, shots):
 
 
 # --------------------------------------------------------------------------- level views
-def level_views(names, density, threshold, shots, views, samples, resolution):
+def level_views(names, density, threshold, shots, views, samples, lightmap_samples, resolution):
     """Each level imported through Blender's OBJ importer (every material matte grey, the sun
     and sky of ``levels``), baked through the add-on, and seen from ``views`` cameras standing
-    in it: each view rendered by Cycles path tracing every bounce and by Cycles showing
-    Luxel's lightmaps, compared over the surfaces Cycles shows lit (not the sky): the mean,
-    and the share of pixels within 10 %; and the same for Cycles' own lightmap of the level
-    at the density (cycles_lightmap_views), what detail finer than a texel leaves."""
+    in it: each view rendered by Cycles path tracing every bounce at ``samples`` a pixel and
+    by Cycles showing Luxel's lightmaps, compared over the surfaces Cycles shows lit (not the
+    sky): the mean, and the share of pixels within 10 %; and the same for Cycles' own
+    lightmap of the level at the density, baked at ``lightmap_samples`` a sub-texel
+    (cycles_lightmap_views), what detail finer than a texel leaves. Indoors the path tracer
+    needs thousands of samples before its own noise stays within 10 % on most pixels."""
     paths = level_paths(names)
     if not paths:
         return {"rows": []}
@@ -146,8 +148,8 @@ def level_views(names, density, threshold, shots, views, samples, resolution):
         rendered = views_module.render_views(bpy.context, len(cameras), tuple(resolution),
                                              samples, bounces=VIEW_BOUNCES)
         render_seconds = time.perf_counter() - started
-        best = cycles_lightmap_views(bpy, luxel, views_module, scene, rendered, samples,
-                                     tuple(resolution))
+        best = cycles_lightmap_views(bpy, luxel, views_module, scene, rendered,
+                                     lightmap_samples, tuple(resolution))
         views = []
         for view, shown in zip(rendered, best):
             views.append({**compare_view(view), "cycles_lightmap": compare_view(shown)})
@@ -162,7 +164,7 @@ def level_views(names, density, threshold, shots, views, samples, resolution):
                   f"pixels within 10 %; Cycles' own lightmap {best['mean_ratio']:.3f}, "
                   f"{100 * best['within_10_percent']:.0f} %", flush=True)
     return {"density": density, "threshold": threshold, "cycles_samples": samples,
-            "resolution": list(resolution), "rows": rows}
+            "lightmap_samples": lightmap_samples, "resolution": list(resolution), "rows": rows}
 
 
 def import_level(bpy, path):
@@ -303,11 +305,11 @@ STUDIES = (
         "gpu": dict(names=[], density=1.0, threshold=0.01, shots=0)}),
     Study("level-views", level_views, {
         "quick": dict(names=["steelribs"], density=0.25, threshold=0.01, shots=50, views=1,
-                      samples=4, resolution=[64, 36]),
+                      samples=4, lightmap_samples=4, resolution=[64, 36]),
         "cpu": dict(names=["steelribs"], density=0.5, threshold=0.01, shots=600, views=2,
-                    samples=64, resolution=[160, 90]),
-        "gpu": dict(names=[], density=1.0, threshold=0.01, shots=0, views=3, samples=256,
-                    resolution=[320, 180])}, blender=True),
+                    samples=64, lightmap_samples=64, resolution=[160, 90]),
+        "gpu": dict(names=[], density=1.0, threshold=0.01, shots=0, views=3, samples=2048,
+                    lightmap_samples=256, resolution=[320, 180])}, blender=True),
 )
 
 if __name__ == "__main__":

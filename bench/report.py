@@ -503,8 +503,10 @@ def level_views_lines(results):
         views, best = shown(row["views"]), "-" if None in best else shown(best)
         rows.append([row["level"], count(row["texels"]), count(row["shots"]),
                      percent(row["unshot"]), f"{row['bake_seconds']:.0f}", views, best])
+    lightmap = results.get("lightmap_samples", results["cycles_samples"])
     return [f"{results['density']:g} texels/m; Cycles {results['cycles_samples']} samples a "
-            f"pixel at {results['resolution'][0]} x {results['resolution'][1]}:", ""] + table(
+            f"pixel at {results['resolution'][0]} x {results['resolution'][1]}, its lightmap "
+            f"{lightmap} a sub-texel:", ""] + table(
         ["level", "texels", "shots", "unshot", "bake s",
          "each view: Luxel / Cycles mean, pixels within 10 %",
          "the same for Cycles' own lightmap"], rows, "lrrrrll")
