@@ -8,7 +8,7 @@ import numpy as np
 from . import lobes
 from .atlas import charted_triangles
 from .errors import GPUMemoryError, SettingsError
-from .state import SUN_FACES
+from .state import LEAST_SUN_TILES
 
 # Per texel (see preprocess.allocate_page): position + area, irradiance, unshot radiance +
 # texel size, and what a receiver pass gathered before it is added (RGBA32F, 16 B each: sums
@@ -65,9 +65,22 @@ def visibility_bytes(settings, map_size, batch):
 
 def visibility_layers(settings, batch):
     """The visibility map's layers: a hemicube's six faces per shooter of the batch (a
-    light's view all round takes six too, a sun's tiles SUN_FACES of them), or for the
-    hemisphere projections the more of their two and a sun's tiles."""
-    return 6 * batch if settings.projection == "HEMICUBE" else max(2, SUN_FACES)
+    light's view all round takes six too), or for the hemisphere projections the more of
+    their two and a sun's least tiles. A sun's window takes as many as its tiles
+    (sun_tiles)."""
+    return 6 * batch if settings.projection == "HEMICUBE" else max(2, LEAST_SUN_TILES ** 2)
+
+
+def sun_tiles(wanted, layers):
+    """A side of the sun's window in tiles: ``wanted`` (preprocess.sun_tiles), at most as
+    many as one sun's window can take of the map's ``layers``."""
+    return max(LEAST_SUN_TILES, min(wanted, math.isqrt(layers)))
+
+
+def sun_batch(layers, tiles, receiver_batch):
+    """Suns one receiver pass gathers: as many windows of ``tiles`` x ``tiles`` as the map's
+    ``layers`` hold, at most the receiver batch."""
+    return max(1, min(receiver_batch, layers // tiles ** 2))
 
 
 def receiver_batch(atlas, settings, map_size, *, texel_bytes=BYTES_PER_TEXEL):

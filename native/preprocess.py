@@ -14,8 +14,8 @@ from .gpu import buffer_content, render_state, set_uniform
 from .receivers import COARSER, PATCH_PROGRAMS
 from .visibility import DRAWN_DISTANCE
 from .shooters import SHOOTER_CELLS
-from .state import (BEND_STEPS, MAP_UNITS, TOTAL_UNITS, Bounds, Energy, Page, decode_normals,
-                    read_map)
+from .state import (BEND_STEPS, LEAST_SUN_TILES, MAP_UNITS, MOST_SUN_TILES, TOTAL_UNITS,
+                    Bounds, Energy, Page, decode_normals, read_map)
 
 RASTER_LAYOUT = (("in_texel", 2), ("in_position", 3), ("in_normal", 3), ("in_tex_uv", 2),
                  ("in_albedo", 3), ("in_reflectance", 3), ("in_emission", 3), ("in_receive", 1),
@@ -87,6 +87,16 @@ def hemicube_resolution(settings, scene):
     needed = max(2.0 * typical_distance * density, 1.0)
     least, most = AUTOMATIC_HEMICUBE
     return int(min(max(2 ** math.ceil(math.log2(needed)), least), most))
+
+
+def sun_tiles(bounds, map_size):
+    """Tiles a side of the sun's orthographic window (over the scene's bounding square,
+    2 x bounds.radius wide) needs for its texels to span no more than 1 / LEAST_MAP_DENSITY,
+    from LEAST_SUN_TILES to MOST_SUN_TILES: at 35 cm the sun passed steps and roofs of a
+    level (docs/benchmarks-log.md, "Why pandora was too bright"). memory.sun_tiles keeps it
+    within the map's layers."""
+    needed = 2.0 * bounds.radius * LEAST_MAP_DENSITY / map_size
+    return int(min(max(math.ceil(needed), LEAST_SUN_TILES), MOST_SUN_TILES))
 
 
 def visibility_map_size(settings, scene):
@@ -193,6 +203,7 @@ def set_constant_uniforms(state):
     settings, bounds = state.settings, state.bounds
     receivers = {"u_resolution": float(state.map_size), "u_atlas_size": size,
                  "u_epsilon": bounds.epsilon, "u_ortho_half": bounds.radius,
+                 "u_sun_tiles": state.sun_tiles,
                  "u_neighbour_visibility": int(settings.neighbour_visibility),
                  "u_emitting_surfaces": state.emitting_surfaces,
                  "u_visibility": 0, **{f"u_{name}": MAP_UNITS[name]
@@ -204,7 +215,7 @@ def set_constant_uniforms(state):
         "moments": {"u_atlas_size": size, "u_normal": 0},
         "block": {"u_block": 1 << state.patch_level, "u_position": 0, "u_unshot": 1},
         "argmax": {"u_source": 0},
-        "visibility": {"u_ortho_half": bounds.radius},
+        "visibility": {"u_ortho_half": bounds.radius, "u_sun_tiles": state.sun_tiles},
         "covered": {"u_visibility": 0, "u_drawn": DRAWN_DISTANCE,
                     "u_pixels": state.receiver_batch},
         "nonlinear": {"u_resolution": float(state.map_size)},

@@ -138,7 +138,9 @@ class Solver:
             batched = next((kind for kind in (Shooter, SunLight) if isinstance(shot, kind)),
                            None)
             batch = [shot]
-            most = min(self._bake.state.receiver_batch, self.shot_limit - self.shots)
+            state = self._bake.state
+            most = min(state.sun_batch if batched is SunLight else state.receiver_batch,
+                       self.shot_limit - self.shots)
             while (batched is not None and len(batch) < most and queue.shots
                    and isinstance(queue.shots[0], batched)):
                 batch.append(queue.shots.pop(0))
@@ -419,7 +421,7 @@ class Solver:
         views = [receivers.light_view(light, state.bounds) for light in lights]
         if isinstance(lights[0], SunLight):
             self._timed("visibility", visibility.render_batch, state, bake.visibility, views,
-                        faces=visibility.SUN_FACES, clip_below=False)
+                        faces=state.sun_faces, clip_below=False)
             # The suns' windows: what misses the scene is not left unshot.
             covered = self._timed("visibility", visibility.covered_shares, state,
                                   bake.visibility, len(lights))

@@ -24,10 +24,11 @@ MAP_UNITS = {"position": 1, "normal": 2, "material": 3, "level": 4, "gathered": 
              "gathered_incoming": 6, "own_area": 8}
 # And of a pass's totals, which deliver.frag reads (receivers.update).
 TOTAL_UNITS = {"received": 0, "reflected": 7}
-# The sun's orthographic window is cut into SUN_TILES x SUN_TILES faces of the visibility
-# map (projection.glsl): a level's window spans hundreds of metres.
-SUN_TILES = 2
-SUN_FACES = SUN_TILES ** 2
+# The sun's orthographic window is cut into sun_tiles x sun_tiles faces of the visibility
+# map (projection.glsl, preprocess.sun_tiles), from LEAST_SUN_TILES to MOST_SUN_TILES a
+# side: a level's window spans hundreds of metres.
+LEAST_SUN_TILES = 2
+MOST_SUN_TILES = 4
 
 
 @dataclass
@@ -99,6 +100,8 @@ class BakeState:
     programs: dict = None
     per_face_visibility: bool = False   # the cube drawn face by face (preprocess.draws_per_face)
     receiver_batch: int = 1     # shooters per receiver pass (memory.receiver_batch)
+    sun_tiles: int = LEAST_SUN_TILES   # a side of the sun's window (preprocess.sun_tiles)
+    sun_batch: int = 1          # suns per receiver pass (memory.sun_batch)
     glossy: bool = False        # some texels reflect through glossy layers (lobes.has_glossy)
     glossy_lobes: bool = False  # the pages keep incoming directions (lobes.needed)
     fullscreen: dict = None     # vertex arrays drawing one screen-filling triangle
@@ -106,6 +109,11 @@ class BakeState:
     pages: list = None
     points_vbo: object = None   # one point per texel a shot changes in place (blend_points)
     points_vao: object = None
+
+    @property
+    def sun_faces(self):
+        """The visibility map's layers one sun's window takes."""
+        return self.sun_tiles ** 2
 
 
 @dataclass

@@ -11,10 +11,10 @@ import numpy as np
 from . import memory
 from .geometry import TrianglePlanes
 from .gpu import render_state, set_uniform
-from .state import SUN_FACES, SUN_TILES, VisibilityMap
+from .state import VisibilityMap
 
 # How many cube faces a view draws (render): the hemicube in front of a shooter, all round a
-# point light, the tiles of the sun's orthographic window (state.SUN_FACES). Hemisphere
+# point light (the sun's orthographic window: BakeState.sun_faces tiles). Hemisphere
 # projections draw the front hemisphere, or both for ALL_FACES.
 FRONT_FACES = 5
 ALL_FACES = 6
@@ -121,13 +121,13 @@ def _reaching(visibility, eye, normals):
     return middle @ normals.T + half @ np.abs(normals).T >= 0.0
 
 
-def _sun_tiles_reached(visibility, view, half_width):
-    """(C, SUN_FACES): whether each cluster's bounds reach each tile of the sun's window
-    (``half_width`` its half side; projection.glsl's face_clip)."""
+def _sun_tiles_reached(visibility, view, half_width, tiles):
+    """(C, tiles^2): whether each cluster's bounds reach each tile of the sun's window
+    (``half_width`` its half side, ``tiles`` a side; projection.glsl's face_clip)."""
     middle = (0.5 * (visibility.cluster_high + visibility.cluster_low) - view.eye) @ view.frame
     half = 0.5 * (visibility.cluster_high - visibility.cluster_low) @ np.abs(view.frame)
-    side = 2.0 * half_width / SUN_TILES
-    low = -half_width + side * np.arange(SUN_TILES)
+    side = 2.0 * half_width / tiles
+    low = -half_width + side * np.arange(tiles)
     reached = [(middle[:, axis, None] + half[:, axis, None] >= low)
                & (middle[:, axis, None] - half[:, axis, None] <= low + side) for axis in (0, 1)]
     return (reached[0][:, None, :] & reached[1][:, :, None]).reshape(len(middle), -1)
@@ -168,7 +168,7 @@ def program_for(settings, orthographic):
 
 def render(state, visibility, view, *, faces, clip_below):
     """Distance map around the view's eye: ``faces`` cube faces (ALL_FACES all round,
-    FRONT_FACES the hemicube in front, SUN_FACES the sun's orthographic view) or, with a
+    FRONT_FACES the hemicube in front, the sun's window's tiles, BakeState.sun_faces) or, with a
     hemisphere projection, the front hemisphere alone or both; ``clip_below`` clips what lies
     behind the eye's plane (a one-sided shooter). Only the clusters of occluders that reach
     what is drawn are drawn: above the eye's plane, and with the cube drawn face by face,
@@ -178,14 +178,15 @@ def render(state, visibility, view, *, faces, clip_below):
 
 
 def render_batch(state, visibility, views, *, faces=FRONT_FACES, clip_below=True):
-    """A batch's ``views``, the i-th into the layers from 6 i (receive_patch.frag,
-    receive_light.frag): the hemicubes in front of patch shooters, each behind its plane
-    clipped, or suns' windows (SUN_FACES, nothing clipped). A batch of one may use any
-    projection (render)."""
+    """A batch's ``views``, the i-th into the layers from 6 i (receive_patch.frag): the
+    hemicubes in front of patch shooters, each behind its plane clipped; or suns' windows
+    (BakeState.sun_faces tiles, nothing clipped), the i-th from sun_faces i
+    (receive_light.frag). A batch of one may use any projection (render)."""
     _clear(visibility)
+    layers = faces if views[0].orthographic else ALL_FACES
     for index, view in enumerate(views):
         _draw(state, visibility, view, faces=faces, clip_below=clip_below,
-              first_layer=ALL_FACES * index)
+              first_layer=layers * index)
 
 
 def _clear(visibility):
@@ -213,7 +214,7 @@ def _draw(state, visibility, view, *, faces, clip_below, first_layer):
     if not per_face:
         draws = [(None, _reaching(visibility, view.eye, above).all(axis=1))]
     elif view.orthographic:   # the sun's tiles cover the scene
-        in_tiles = _sun_tiles_reached(visibility, view, state.bounds.radius)
+        in_tiles = _sun_tiles_reached(visibility, view, state.bounds.radius, state.sun_tiles)
         draws = [(face, in_tiles[:, face]) for face in range(faces)]
     else:
         sides = _face_normals(view, faces)
@@ -232,18 +233,18 @@ def _draw(state, visibility, view, *, faces, clip_below, first_layer):
 
 
 def covered_shares(state, visibility, count):
-    """(count,) the share of the texels that something was drawn into, of the SUN_FACES
+    """(count,) the share of the texels that something was drawn into, of the sun_faces
     layers of each of the first ``count`` views of a batch (render_batch): the suns' windows
     the scene covers. Counted on the GPU (covered_share.vert), COUNTED_TEXELS a point:
     reading the maps back took longer than drawing them."""
-    rows = max(1, COUNTED_TEXELS // (state.map_size * SUN_FACES))
+    rows = max(1, COUNTED_TEXELS // (state.map_size * state.sun_faces))
     bands = -(-state.map_size // rows)
     set_uniform(state.programs["covered"], "u_rows", rows)
-    set_uniform(state.programs["covered"], "u_faces", SUN_FACES)
+    set_uniform(state.programs["covered"], "u_faces", state.sun_faces)
     visibility.texture.use(location=0)
     visibility.covered_framebuffer.clear(0.0, 0.0, 0.0, 0.0)
     visibility.covered_framebuffer.use()
     with render_state(state.ctx, blend=moderngl.FUNC_ADD):
         visibility.vaos["covered"].render(moderngl.POINTS, vertices=count * bands)
     counts = np.frombuffer(visibility.covered.read(), dtype="f4").reshape(-1, 4)[:count, 0]
-    return counts / (SUN_FACES * state.map_size ** 2)
+    return counts / (state.sun_faces * state.map_size ** 2)

@@ -1,6 +1,6 @@
 #version 410
 // How many texels of each sun's window something was drawn into (visibility.covered_shares):
-// the i-th sun of a batch counts the u_faces layers of its tiles (from layer 6 i,
+// the i-th sun of a batch counts the u_faces layers of its tiles (from layer u_faces i,
 // visibility.render_batch) into pixel i of a row, a band of u_rows rows per point, the
 // bands summed by blending (llvmpipe ends a loop after 65535 turns, nested ones counted
 // together). Read back as a handful of numbers, not the maps.
@@ -20,7 +20,7 @@ void main() {
     for (int face = 0; face < u_faces; ++face) {
         for (int y = first; y < min(first + u_rows, size.y); ++y) {
             for (int x = 0; x < size.x; ++x) {
-                if (texelFetch(u_visibility, ivec3(x, y, 6 * sun + face), 0).r < u_drawn)
+                if (texelFetch(u_visibility, ivec3(x, y, u_faces * sun + face), 0).r < u_drawn)
                     covered += 1.0;
             }
         }

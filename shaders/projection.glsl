@@ -1,9 +1,9 @@
 // Views used for visibility. A cube of six 90-degree faces around the eye in the shooter's
 // frame (t, b, n): face 0 looks along +n, faces 1-4 along +-t and +-b with n up, face 5 along -n.
 // The hemicube is faces 0-4. In orthographic mode (the sun) the window looking along +n is cut
-// into SUN_TILES x SUN_TILES faces, face tx + SUN_TILES ty its tile (tx, ty) from (-t, -b): a
-// level's window spans hundreds of metres, and one face's texels let the sun past steps and
-// ledges narrower than them.
+// into u_sun_tiles x u_sun_tiles faces, face tx + u_sun_tiles ty its tile (tx, ty) from
+// (-t, -b): a level's window spans hundreds of metres, and one face's texels let the sun
+// past steps and ledges narrower than them.
 // The hemisphere projections use two layers instead: 0 the hemisphere around +n, 1 around -n,
 // each projected stereographically onto the unit disc.
 #ifdef VIEW_PER_SHOOTER
@@ -21,7 +21,7 @@ uniform float u_near;
 uniform float u_far;
 uniform int u_hemisphere;    // 1: the map holds stereographic hemispheres, not cube faces
 
-const int SUN_TILES = 2;   // state.SUN_TILES
+uniform int u_sun_tiles;     // a side of the sun's window in tiles (preprocess.sun_tiles)
 
 const vec3 FACE_FORWARD[6] = vec3[6](vec3(0, 0, 1), vec3(1, 0, 0), vec3(-1, 0, 0),
                                      vec3(0, 1, 0), vec3(0, -1, 0), vec3(0, 0, -1));
@@ -33,9 +33,9 @@ const vec3 FACE_UP[6] = vec3[6](vec3(0, 1, 0), vec3(0, 0, 1), vec3(0, 0, 1),
 vec3 to_local(vec3 world) { return transpose(u_frame) * (world - u_eye); }
 
 // Half the width of one of the sun's tiles, and the middle of tile 'face' in the window.
-float sun_tile_half() { return u_ortho_half / float(SUN_TILES); }
+float sun_tile_half() { return u_ortho_half / float(u_sun_tiles); }
 vec2 sun_tile_middle(int face) {
-    vec2 tile = vec2(face % SUN_TILES, face / SUN_TILES);
+    vec2 tile = vec2(face % u_sun_tiles, face / u_sun_tiles);
     return (2.0 * tile + 1.0) * sun_tile_half() - u_ortho_half;
 }
 
@@ -59,8 +59,8 @@ float view_distance(vec3 local) {
 int face_of(vec3 local) {
     if (u_orthographic != 0) {
         ivec2 tile = clamp(ivec2(floor((local.xy + u_ortho_half) / (2.0 * sun_tile_half()))),
-                           ivec2(0), ivec2(SUN_TILES - 1));
-        return tile.x + SUN_TILES * tile.y;
+                           ivec2(0), ivec2(u_sun_tiles - 1));
+        return tile.x + u_sun_tiles * tile.y;
     }
     vec3 a = abs(local);
     if (a.z >= a.x && a.z >= a.y) return local.z >= 0.0 ? 0 : 5;

@@ -2,8 +2,8 @@
 // Receiver update for a point, spot or sun light (Blender's conventions, as Cycles renders
 // them): irradiance I cos / d^2 from a point of intensity I, masked to a spot's cone, or S cos
 // from a sun of strength S. Suns come in batches (the sky's many), gathered one after another
-// per texel in one pass, each against its own visibility map: the layer 6 x its index; a
-// point or spot light alone.
+// per texel in one pass, each against its own visibility map: its window's u_sun_tiles^2
+// layers from u_sun_tiles^2 x its index; a point or spot light alone.
 #define VIEW_PER_SHOOTER
 #include "projection.glsl"
 #include "visibility_test.glsl"
@@ -66,5 +66,6 @@ vec3 irradiance_at(vec3 point, vec3 normal, float near_side, float square_side) 
         }
         irradiance = u_light_values[light] * mask * cos_r / dist2;
     }
-    return irradiance * visible_over_texel(point, 6 * light, pass_takes_squares());
+    return irradiance * visible_over_texel(point, u_sun_tiles * u_sun_tiles * light,
+                                           pass_takes_squares());
 }

@@ -6,7 +6,7 @@
 // most of a shot on scenes of many triangles; visibility_face.vert draws face by face.) The
 // corners go out in their order: the fragment shader tells the side facing the eye by it.
 layout(triangles) in;
-layout(triangle_strip, max_vertices = 18) out;
+layout(triangle_strip, max_vertices = 48) out;   // a sun's 4 x 4 tiles (state.MOST_SUN_TILES)
 
 uniform int u_face_count;
 uniform int u_clip_below;

@@ -18,6 +18,8 @@ from native.state import View
 # A texel's key (visibility_store.glsl): the surface number and the facing-away bit.
 SURFACE_BITS = 0xFFF
 FACES_AWAY_BIT = 0x1000
+# A sun's view in views(): its faces are the bake's tiles (BakeState.sun_faces).
+SUN = "sun"
 
 
 def room():
@@ -59,7 +61,7 @@ def views():
     sun /= np.linalg.norm(sun)
     return ([(view, visibility.FRONT_FACES, True) for view in shooters]
             + [(view, visibility.ALL_FACES, False) for view in lights]
-            + [(sun, visibility.SUN_FACES, False)])
+            + [(sun, SUN, False)])
 
 
 def maps(solver, drawn_views):
@@ -71,7 +73,8 @@ def maps(solver, drawn_views):
     found = []
     with using(solver.ctx):
         for view, faces, clip_below in drawn_views:
-            if faces == visibility.SUN_FACES:
+            if faces == SUN:
+                faces = state.sun_faces
                 view = light_view(SunLight(direction=tuple(view), strength=1.0),
                                   state.bounds)
             visibility.render(state, vis, view, faces=faces, clip_below=clip_below)
@@ -134,7 +137,7 @@ def test_the_facing_away_bit_is_the_corners_orientation_seen_from_the_eye(ctx, g
         solver.release()
     seen_away = set()
     for (view, faces, _), texels in zip(drawn_views, found):
-        if faces == visibility.SUN_FACES:
+        if faces == SUN:
             away = normals @ view > 0.0
         else:
             away = np.einsum("ij,ij->i", normals, corners[:, 0] - view.eye) > 0.0
