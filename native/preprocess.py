@@ -12,7 +12,7 @@ from .errors import SettingsError
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
 from .receivers import COARSER, PATCH_PROGRAMS
-from .visibility import DRAWN_DISTANCE
+from .visibility import ALL_FACES, DRAWN_DISTANCE
 from .shooters import SHOOTER_CELLS
 from .state import (BEND_STEPS, LEAST_SUN_TILES, MAP_UNITS, MOST_SUN_TILES, TOTAL_UNITS,
                     Bounds, Energy, Page, decode_normals, read_map)
@@ -127,6 +127,7 @@ def create_gpu_state(state):
     gl = state.gl
     state.per_face_visibility = draws_per_face(state.ctx, state.settings)
     state.programs = create_programs(gl, state.settings, per_face=state.per_face_visibility,
+                                     most_faces=max(ALL_FACES, state.sun_faces),
                                      receiver_batch=state.receiver_batch,
                                      glossy_lobes=state.glossy_lobes)
     state.fullscreen = {name: gl.vertex_array(state.programs[name], [])
@@ -140,9 +141,10 @@ def create_gpu_state(state):
                    for _ in range(state.packed.page_count)]
 
 
-def create_programs(gl, settings, *, per_face, receiver_batch, glossy_lobes):
+def create_programs(gl, settings, *, per_face, most_faces, receiver_batch, glossy_lobes):
     """The programs by name; ``per_face``: the cube's faces drawn one by one
-    (draws_per_face), not routed by a geometry shader; ``receiver_batch``: the shooters a
+    (draws_per_face), not routed by a geometry shader, which routes a triangle to at most
+    ``most_faces`` (the cube's, or a sun's tiles); ``receiver_batch``: the shooters a
     receiver pass gathers (a batch of one compiles to a pass without the loop over them,
     which on llvmpipe cost a shot's pass about a third more); ``glossy_lobes``: the
     receivers keep incoming directions and patches shoot lobes (lobes.py). Patches gather
@@ -156,7 +158,8 @@ def create_programs(gl, settings, *, per_face, receiver_batch, glossy_lobes):
         "block": gl.program("fullscreen.vert", "block_power.frag"),
         "argmax": gl.program("fullscreen.vert", "argmax.frag"),
         "visibility": (gl.program("visibility_face.vert", "visibility.frag") if per_face else
-                       gl.program("visibility.vert", "visibility.frag", "visibility.geom")),
+                       gl.program("visibility.vert", "visibility.frag", "visibility.geom",
+                                  defines={"MOST_VERTICES": 3 * most_faces})),
         "hemisphere": gl.program("visibility_hemisphere.vert", "visibility_hemisphere.frag",
                                  "visibility_hemisphere.geom"),
         "hemisphere_tessellated": gl.program(

@@ -6,7 +6,10 @@
 // most of a shot on scenes of many triangles; visibility_face.vert draws face by face.) The
 // corners go out in their order: the fragment shader tells the side facing the eye by it.
 layout(triangles) in;
-layout(triangle_strip, max_vertices = 48) out;   // a sun's 4 x 4 tiles (state.MOST_SUN_TILES)
+// MOST_VERTICES, defined where the program is made (preprocess.create_programs): a triangle
+// for each of the cube's six faces, or of a sun's tiles where they are more. A larger
+// output costs a GPU's geometry stage.
+layout(triangle_strip, max_vertices = MOST_VERTICES) out;
 
 uniform int u_face_count;
 uniform int u_clip_below;

@@ -9,7 +9,7 @@ import pytest
 
 import scenes
 
-from native import Settings, SettingsError, Solver, visibility
+from native import Settings, SettingsError, Solver, preprocess, visibility
 from native.gpu import using
 from native.preprocess import VERTEX_LAYER_EXTENSION, draws_per_face
 from native.samples import SceneBuilder
@@ -24,8 +24,8 @@ SUN = "sun"
 
 def room():
     """A closed 2 m room of subdivided walls (the unit cube's faces, inward, the top emitting)
-    with panels inside facing several ways: many clusters, and triangles seen from both
-    sides."""
+    with panels inside facing several ways: many clusters, triangles seen from both sides,
+    and two that span the room."""
     builder = SceneBuilder()
     for name, corners in scenes.CUBE_FACES.items():
         emission = (1.0,) * 3 if name == "top" else (0.0,) * 3
@@ -37,6 +37,9 @@ def room():
                                   (1.0, 1.2, 1.4)], subdivisions=6)
     builder.quad("panel_down", [(0.3, 1.3, 1.5), (0.3, 1.8, 1.5), (0.9, 1.8, 1.5),
                                 (0.9, 1.3, 1.5)], subdivisions=6)
+    # Two triangles across the room: each reaches many of a sun's tiles.
+    builder.quad("panel_across", [(0.05, 0.05, 0.2), (1.95, 0.05, 0.25), (1.95, 1.95, 0.3),
+                                  (0.05, 1.95, 0.25)])
     return builder.build()
 
 
@@ -90,12 +93,18 @@ def solver_for(ctx, draw):
                                    visibility_draw=draw), ctx=ctx)
 
 
-def test_per_face_draws_give_the_geometry_shaders_maps_bit_for_bit(ctx, gl_clean):
+@pytest.mark.parametrize("sun_tiles", [2, 4])
+def test_per_face_draws_give_the_geometry_shaders_maps_bit_for_bit(ctx, gl_clean, monkeypatch,
+                                                                   sun_tiles):
+    """Also with the sun's window in 4 x 4 tiles, as a level's (preprocess.sun_tiles): the
+    geometry shader then routes a triangle to up to 16 faces."""
+    monkeypatch.setattr(preprocess, "sun_tiles", lambda bounds, map_size: sun_tiles)
     drawn = {}
     for draw in ("GEOMETRY_SHADER", "PER_FACE"):
         solver = solver_for(ctx, draw)
         try:
             assert solver._bake.state.per_face_visibility == (draw == "PER_FACE")
+            assert solver._bake.state.sun_tiles == sun_tiles
             assert len(solver._bake.visibility.cluster_low) > 10
             drawn[draw] = maps(solver, views())
         finally:
