@@ -57,6 +57,9 @@ AUTOMATIC_HEMICUBE = (128, 512)
 # let light past an office's furniture (docs/benchmarks-log.md, "The visibility map's
 # resolution").
 LEAST_MAP_DENSITY = 10.0
+# The sun's tiled window spans at most this many texels across: covered_share.vert counts a
+# row of them per tile in one loop, which llvmpipe ends after 65535 turns.
+MOST_SUN_WINDOW = 8192
 
 
 @dataclass
@@ -92,11 +95,12 @@ def hemicube_resolution(settings, scene):
 def sun_tiles(bounds, map_size):
     """Tiles a side of the sun's orthographic window (over the scene's bounding square,
     2 x bounds.radius wide) needs for its texels to span no more than 1 / LEAST_MAP_DENSITY,
-    from LEAST_SUN_TILES to MOST_SUN_TILES: at 35 cm the sun passed steps and roofs of a
-    level (docs/benchmarks-log.md, "Why pandora was too bright"). memory.sun_tiles keeps it
-    within the map's layers."""
+    from LEAST_SUN_TILES to MOST_SUN_TILES and at most MOST_SUN_WINDOW texels across: at 35
+    cm the sun passed steps and roofs of a level (docs/benchmarks-log.md, "Why pandora was
+    too bright"). memory.sun_tiles keeps it within the map's layers."""
     needed = 2.0 * bounds.radius * LEAST_MAP_DENSITY / map_size
-    return int(min(max(math.ceil(needed), LEAST_SUN_TILES), MOST_SUN_TILES))
+    most = max(LEAST_SUN_TILES, min(MOST_SUN_TILES, MOST_SUN_WINDOW // map_size))
+    return int(min(max(math.ceil(needed), LEAST_SUN_TILES), most))
 
 
 def visibility_map_size(settings, scene):
