@@ -67,14 +67,8 @@ def visibility_layers(settings, batch):
     """The visibility map's layers: a hemicube's six faces per shooter of the batch (a
     light's view all round takes six too), or for the hemisphere projections the more of
     their two and a sun's least tiles. A sun's window takes as many as its tiles
-    (sun_tiles)."""
+    (preprocess.sun_tiles)."""
     return 6 * batch if settings.projection == "HEMICUBE" else max(2, LEAST_SUN_TILES ** 2)
-
-
-def sun_tiles(wanted, layers):
-    """A side of the sun's window in tiles: ``wanted`` (preprocess.sun_tiles), at most as
-    many as one sun's window can take of the map's ``layers``."""
-    return max(LEAST_SUN_TILES, min(wanted, math.isqrt(layers)))
 
 
 def sun_batch(layers, tiles, receiver_batch):

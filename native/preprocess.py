@@ -92,15 +92,15 @@ def hemicube_resolution(settings, scene):
     return int(min(max(2 ** math.ceil(math.log2(needed)), least), most))
 
 
-def sun_tiles(bounds, map_size):
+def sun_tiles(bounds, map_size, layers):
     """Tiles a side of the sun's orthographic window (over the scene's bounding square,
     2 x bounds.radius wide) needs for its texels to span no more than 1 / LEAST_MAP_DENSITY,
-    from LEAST_SUN_TILES to MOST_SUN_TILES and at most MOST_SUN_WINDOW texels across: at 35
-    cm the sun passed steps and roofs of a level (docs/benchmarks-log.md, "Why pandora was
-    too bright"). memory.sun_tiles keeps it within the map's layers."""
+    from LEAST_SUN_TILES to MOST_SUN_TILES, at most MOST_SUN_WINDOW texels across and as
+    many as one window can take of the map's ``layers``: at 35 cm the sun passed steps and
+    roofs of a level (docs/benchmarks-log.md, "Why pandora was too bright")."""
     needed = 2.0 * bounds.radius * LEAST_MAP_DENSITY / map_size
-    most = max(LEAST_SUN_TILES, min(MOST_SUN_TILES, MOST_SUN_WINDOW // map_size))
-    return int(min(max(math.ceil(needed), LEAST_SUN_TILES), most))
+    most = min(MOST_SUN_TILES, MOST_SUN_WINDOW // map_size, math.isqrt(layers))
+    return int(max(LEAST_SUN_TILES, min(math.ceil(needed), most)))
 
 
 def visibility_map_size(settings, scene):

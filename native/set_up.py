@@ -95,8 +95,7 @@ def pieces(scene, settings, ctx, gl):
     state.receiver_batch = memory.receiver_batch(state.packed, settings, state.map_size,
                                                  texel_bytes=texel_bytes)
     layers = memory.visibility_layers(settings, state.receiver_batch)
-    state.sun_tiles = memory.sun_tiles(preprocess.sun_tiles(state.bounds, state.map_size),
-                                       layers)
+    state.sun_tiles = preprocess.sun_tiles(state.bounds, state.map_size, layers)
     state.sun_batch = memory.sun_batch(layers, state.sun_tiles, state.receiver_batch)
     memory_bytes = memory.memory_needed(state.packed, settings, state.map_size,
                                         state.receiver_batch, texel_bytes=texel_bytes)

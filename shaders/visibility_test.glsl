@@ -80,6 +80,15 @@ bool texel_sees(ivec3 texel, vec2 stored_texel, vec3 point, vec3 normal, float o
 ivec3 last_map_texel;
 float last_map_distance;
 
+// How far in front of the plane of a receiver ('world', 'normal') lies the surface that
+// visible_from_eye() just found in its own map texel: where it is hidden, what hides it.
+float blocker_height(vec3 world, vec3 normal) {
+    vec3 origin, direction;
+    texel_ray(last_map_texel, origin, direction);
+    return dot(transpose(u_frame) * normal,
+               origin + last_map_distance * direction - to_local(world));
+}
+
 // How much of 'world' (a receiver with normal 'normal' on the surface numbered 'surface')
 // the eye sees: 1 when it is the nearest surface in its direction. The eye's map starts at
 // layer 'first_layer' (a batch of shooters keeps one map each, one after another).
@@ -143,21 +152,10 @@ float visible_from_eye(vec3 world, vec3 normal, float surface, int first_layer) 
             if (own - stored.r > 2.0 * tolerance.reach) return 0.0;
             // Whether what hides the receiver's own texel stands in front of its plane, not at
             // or behind it (the edge of the block it is the side of), for the 3x3 after it.
-            vec3 origin, direction;
-            texel_ray(n, origin, direction);
-            overhung = dot(local_normal, origin + stored.r * direction - local) > u_epsilon;
+            overhung = blocker_height(world, normal) > u_epsilon;
         } else if (sees) {
             seen += 1.0;
         }
     }
     return seen / 9.0;
-}
-
-// How far in front of the plane of a receiver ('world', 'normal') lies the surface that
-// visible_from_eye() just found in its own map texel: where it is hidden, what hides it.
-float blocker_height(vec3 world, vec3 normal) {
-    vec3 origin, direction;
-    texel_ray(last_map_texel, origin, direction);
-    return dot(transpose(u_frame) * normal,
-               origin + last_map_distance * direction - to_local(world));
 }

@@ -98,7 +98,7 @@ def test_per_face_draws_give_the_geometry_shaders_maps_bit_for_bit(ctx, gl_clean
                                                                    sun_tiles):
     """Also with the sun's window in 4 x 4 tiles, as a level's (preprocess.sun_tiles): the
     geometry shader then routes a triangle to up to 16 faces."""
-    monkeypatch.setattr(preprocess, "sun_tiles", lambda bounds, map_size: sun_tiles)
+    monkeypatch.setattr(preprocess, "sun_tiles", lambda bounds, map_size, layers: sun_tiles)
     drawn = {}
     for draw in ("GEOMETRY_SHADER", "PER_FACE"):
         solver = solver_for(ctx, draw)
