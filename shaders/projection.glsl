@@ -56,10 +56,15 @@ float view_distance(vec3 local) {
     return u_orthographic != 0 ? local.z : length(local);
 }
 
+// The sun's tile (tx, ty) that holds the window's point 'xy' (the nearest at its edges).
+ivec2 sun_tile_of(vec2 xy) {
+    return clamp(ivec2(floor((xy + u_ortho_half) / (2.0 * sun_tile_half()))), ivec2(0),
+                 ivec2(u_sun_tiles - 1));
+}
+
 int face_of(vec3 local) {
     if (u_orthographic != 0) {
-        ivec2 tile = clamp(ivec2(floor((local.xy + u_ortho_half) / (2.0 * sun_tile_half()))),
-                           ivec2(0), ivec2(u_sun_tiles - 1));
+        ivec2 tile = sun_tile_of(local.xy);
         return tile.x + u_sun_tiles * tile.y;
     }
     vec3 a = abs(local);

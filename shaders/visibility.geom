@@ -37,7 +37,19 @@ bool outside(vec4 clip[3]) {
 void main() {
     vec3 local[3] = vec3[3](to_local(v_world[0]), to_local(v_world[1]), to_local(v_world[2]));
     if (u_clip_below != 0 && local[0].z < 0.0 && local[1].z < 0.0 && local[2].z < 0.0) return;
-    for (int face = 0; face < u_face_count; ++face) {
+    // The sun's tiles under the triangle's box in the window (a margin wide), not all of
+    // them: a level's window has up to 16, and each costs a GPU's geometry stage its loop.
+    int faces = u_face_count, first = 0, columns = u_face_count;
+    if (u_orthographic != 0) {
+        vec2 margin = vec2(1e-3 * sun_tile_half());
+        ivec2 low = sun_tile_of(min(min(local[0].xy, local[1].xy), local[2].xy) - margin);
+        ivec2 high = sun_tile_of(max(max(local[0].xy, local[1].xy), local[2].xy) + margin);
+        first = low.x + u_sun_tiles * low.y;
+        columns = high.x - low.x + 1;
+        faces = columns * (high.y - low.y + 1);
+    }
+    for (int k = 0; k < faces; ++k) {
+        int face = first + k % columns + u_sun_tiles * (k / columns);
         vec4 clip[3];
         for (int i = 0; i < 3; ++i) clip[i] = face_clip(local[i], face);
         if (outside(clip)) continue;
