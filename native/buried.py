@@ -95,14 +95,22 @@ def _bury_in_solids(scene, atlas, planes, points_of):
         # Only where the solid reaches from behind the tested points to in front of them.
         heights = solid.reshape(-1, 3) @ normal[near].T - offset[near]
         near = near[(heights.min(axis=0) <= lift[near]) & (heights.max(axis=0) >= lift[near])]
-        for charted in near:
-            found = points_of(charted)
-            inside_box = np.all((found.lifted >= solid_low) & (found.lifted <= solid_high),
-                                axis=1) & (found.kept > 0)
-            where = np.nonzero(inside_box)[0]
-            if len(where):
-                buried = _winding_numbers(solid, found.lifted[where]) > BURIED_WINDING
-                found.kept[where[buried]] = 0.0
+        if not len(near):
+            continue
+        # The near triangles' points together: one winding-number sum over the solid.
+        found = points_of(near)
+        counts = np.array([len(points.kept) for points in found])
+        lifted = np.concatenate([points.lifted for points in found])
+        kept = np.concatenate([points.kept for points in found])
+        where = np.nonzero(np.all((lifted >= solid_low) & (lifted <= solid_high), axis=1)
+                           & (kept > 0))[0]
+        if not len(where):
+            continue
+        buried = where[_winding_numbers(solid, lifted[where]) > BURIED_WINDING]
+        starts = np.cumsum(counts) - counts
+        owner = np.searchsorted(starts, buried, side="right") - 1
+        for index in np.unique(owner):
+            found[index].kept[buried[owner == index] - starts[index]] = 0.0
 
 
 def _share_coincident_faces(scene, atlas, planes, epsilon, points_of):
