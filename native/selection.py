@@ -25,10 +25,14 @@ AUTOMATIC_PATCHES = 1024
 # power than the strongest patch shot had, by at most this many levels.
 MAX_COARSER_LEVELS = 2
 # A strong block shoots as parts at most this many levels finer than the patch level (a
-# sixteenth of a patch, whose side follows the scene's size, not its texels): the Cornell
-# box's light shot as its 357 single texels at 160 texels per metre where 60 texels per metre
-# make its 48 texels a patch's quarter each.
-FINEST_PARTS = 2
+# quarter of a patch, whose side follows the scene's size, not its texels), per projection.
+# Each part is a shot: a light's sixteenths took four times the shots of its quarters to the
+# first lightmap. The cube and the non-linear projection place each part's shadow edges
+# where they fall, so a quarter's penumbra is a staircase of half the light's steps; the
+# per-vertex hemisphere draws a caster's edges straight and misplaces them by up to a
+# texel, which only the sixteenths' many eyes average out (docs/benchmarks-log.md, "A
+# light's quarters").
+FINEST_PARTS = {"HEMICUBE": 1, "NONLINEAR": 1, "HEMISPHERE": 2}
 # A selection reads back up to this many candidates per shooter it may queue (blocks inside
 # others are dropped later).
 CANDIDATES_PER_SHOOTER = 2
@@ -130,7 +134,7 @@ def block_region(state, energy, queue, candidate, least_finer=0):
     power = candidate.power
     ratio = power * energy.shooting_blocks / max(energy.emitted_scalar, 1e-30)
     finer = min(max(min(level, int(math.log(ratio, 4.0))) if ratio >= 4.0 else 0, least_finer),
-                FINEST_PARTS)
+                FINEST_PARTS[state.settings.projection])
     coarser = 0 if finer else _coarser_levels(state.settings, queue, power)
     size = 1 << (level + coarser)
     x, y = candidate.block
