@@ -63,13 +63,18 @@ def smooth_surfaces(scene):
     """A number per triangle for the smooth surface it belongs to: triangles joined across
     shared edges that bend by less than SMOOTH_SURFACE_DEGREES (a curved mesh's facets are
     one surface; a box's faces, or a wall and the floor it stands on, are several), and the
-    triangles of one object in one plane (pieces meeting at T-junctions). The visibility test
+    triangles of one object in one plane (pieces meeting at T-junctions). An edge is shared
+    where an object's triangles meet at the same corners, whether or not they share the
+    vertices: a flat-shaded mesh comes with its corners split per face. The visibility test
     forgives a receiver small depth differences against its own surface only."""
     corners = scene.vertices[scene.triangles]
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     count = len(scene.triangles)
-    edges = np.sort(scene.triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    welded = unique_rows(np.column_stack([np.repeat(scene.object_index, 3),
+                                          corners.reshape(-1, 3)]),
+                         return_inverse=True)[1].reshape(-1, 3)
+    edges = np.sort(welded[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     owners = np.repeat(np.arange(count), 3)
     order = np.lexsort((edges[:, 1], edges[:, 0]))
     edges, owners = edges[order], owners[order]

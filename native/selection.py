@@ -24,15 +24,16 @@ AUTOMATIC_PATCHES = 1024
 # The adaptive shooting level coarsens a shot by one level (4x the texels) for every 4x less
 # power than the strongest patch shot had, by at most this many levels.
 MAX_COARSER_LEVELS = 2
-# A strong block shoots as parts at most this many levels finer than the patch level (a
-# quarter of a patch, whose side follows the scene's size, not its texels), per projection.
-# Each part is a shot: a light's sixteenths took four times the shots of its quarters to the
-# first lightmap. The cube and the non-linear projection place each part's shadow edges
-# where they fall, so a quarter's penumbra is a staircase of half the light's steps; the
-# per-vertex hemisphere draws a caster's edges straight and misplaces them by up to a
-# texel, which only the sixteenths' many eyes average out (docs/benchmarks-log.md, "A
-# light's quarters").
-FINEST_PARTS = {"HEMICUBE": 1, "NONLINEAR": 1, "HEMISPHERE": 2}
+# A strong block shoots as parts at most this many levels finer than the patch level, per
+# projection: a quarter or a sixteenth of a patch (whose side follows the scene's size, not
+# its texels). Each part is a shot: a light's sixteenths took four times the shots of its
+# quarters to the first lightmap, and cut its penumbrae into twice the steps. The cube, the
+# default, takes quarters for the first lightmap's sake; the non-linear projection, chosen
+# for accuracy at twice the cube's time, keeps the sixteenths (a penumbra-strewn scene's
+# error against Cycles was 15 % higher with quarters); and the per-vertex hemisphere needs
+# them, its straight-drawn edges misplaced by up to a texel, which the sixteenths' many eyes
+# average out (docs/benchmarks-log.md, "A light's quarters").
+FINEST_PARTS = {"HEMICUBE": 1, "NONLINEAR": 2, "HEMISPHERE": 2}
 # A selection reads back up to this many candidates per shooter it may queue (blocks inside
 # others are dropped later).
 CANDIDATES_PER_SHOOTER = 2

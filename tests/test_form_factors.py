@@ -202,8 +202,8 @@ def test_a_strong_light_casts_its_penumbra_from_its_texels(ctx, gl_clean, projec
     block's share of the power, shoots as parts (selection.FINEST_PARTS): every penumbra
     texel is within 10 % of the fully lit value (the cube's quarters 6.7 %, half a step of a
     4-step staircase; sixteenths 3.4 %; 20 % shot as 4 x 4 blocks; the hemisphere's quarters
-    13 %, its straight edges misplaced), and on average within 1 % (0.00 %; +1.6 % when the
-    neighbour vote lit a map texel's width of each texel's shadow)."""
+    would be 13 %, its straight edges misplaced), and on average within 1 % (0.00 %; +1.6 %
+    when the neighbour vote lit a map texel's width of each texel's shadow)."""
     albedo, half, light_z, plate_z = 0.5, 0.1, 1.0, 0.5
     light = [(-half, -half, light_z), (-half, half, light_z), (half, half, light_z),
              (half, -half, light_z)]   # faces the floor
