@@ -228,9 +228,11 @@ SETTINGS = (
     Setting(name="projection", kind=str, default="HEMICUBE", choices=PROJECTION_CHOICES,
             help="How visibility is sampled around each shooter",
             exposed=Exposed(label="Projection", option="--projection",
-                            trades="Hemicube: the paper's baseline; Non-Linear: exact "
-                                   "spherical triangles, slower on a CPU; Hemisphere: straight "
-                                   "edges where arcs should be, least exact")),
+                            trades="Hemicube: the paper's baseline, lights shot in "
+                                   "quarters of a patch; Non-Linear: exact spherical "
+                                   "triangles, lights in sixteenths, smoother penumbrae, "
+                                   "slower on a CPU; Hemisphere: straight edges where arcs "
+                                   "should be, least exact")),
     # llvmpipe runs geometry shaders on the calling thread (docs/benchmarks-log.md, "All four
     # scenes at equal error"); the hemisphere projections draw with their own geometry shaders.
     Setting(name="visibility_draw", kind=str, default="AUTO", choices=VISIBILITY_DRAW_CHOICES,
