@@ -99,18 +99,17 @@ def _bury_in_solids(scene, atlas, planes, points_of):
             continue
         # The near triangles' points together: one winding-number sum over the solid.
         found = points_of(near)
-        counts = np.array([len(points.kept) for points in found])
         lifted = np.concatenate([points.lifted for points in found])
         kept = np.concatenate([points.kept for points in found])
         where = np.nonzero(np.all((lifted >= solid_low) & (lifted <= solid_high), axis=1)
                            & (kept > 0))[0]
         if not len(where):
             continue
-        buried = where[_winding_numbers(solid, lifted[where]) > BURIED_WINDING]
-        starts = np.cumsum(counts) - counts
-        owner = np.searchsorted(starts, buried, side="right") - 1
-        for index in np.unique(owner):
-            found[index].kept[buried[owner == index] - starts[index]] = 0.0
+        buried = np.zeros(len(kept), dtype=bool)
+        buried[where] = _winding_numbers(solid, lifted[where]) > BURIED_WINDING
+        ends = np.cumsum([len(points.kept) for points in found])[:-1]
+        for points, inside in zip(found, np.split(buried, ends)):
+            points.kept[inside] = 0.0
 
 
 def _share_coincident_faces(scene, atlas, planes, epsilon, points_of):

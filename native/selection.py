@@ -29,8 +29,8 @@ MAX_COARSER_LEVELS = 2
 # its texels). Each part is a shot: a light's sixteenths took four times the shots of its
 # quarters to the first lightmap, and cut its penumbrae into twice the steps. The cube, the
 # default, takes quarters for the first lightmap's sake; the non-linear projection, chosen
-# for accuracy at twice the cube's time, keeps the sixteenths (a penumbra-strewn scene's
-# error against Cycles was 15 % higher with quarters); and the per-vertex hemisphere needs
+# for accuracy at more time than the cube's, keeps the sixteenths (with quarters it came
+# farther from Cycles on a scene strewn with penumbrae); and the per-vertex hemisphere needs
 # them, its straight-drawn edges misplaced by up to a texel, which the sixteenths' many eyes
 # average out (docs/benchmarks-log.md, "A light's quarters").
 FINEST_PARTS = {"HEMICUBE": 1, "NONLINEAR": 2, "HEMISPHERE": 2}
