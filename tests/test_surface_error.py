@@ -1,5 +1,5 @@
 """The error measured where a renderer looks a lightmap up (native/evaluation/surface_error.py):
-points spread by area off the triangles' edges, bilinear lookups, against closed forms."""
+points spread by area off the charts' borders, bilinear lookups, against closed forms."""
 import math
 
 import numpy as np
@@ -55,6 +55,56 @@ def test_a_triangle_narrower_than_the_inset_holds_no_point():
     assert (points.triangle == 0).all()
     with pytest.raises(ValueError, match="inset"):
         surface_points(corners[1:], corners[1:, :, :2], pages=[0], count=10, inset=0.05)
+
+
+def strip_of_facets(width=1.0, height=0.2, facets=20):
+    """A width x height rectangle in z = 0 cut into ``facets`` upright strips of two
+    triangles each, every triangle narrower than the tests' inset allows on its own."""
+    xs = np.linspace(0.0, width, facets + 1)
+    corners = []
+    for left, right in zip(xs[:-1], xs[1:]):
+        corners.append([[left, 0, 0], [right, 0, 0], [right, height, 0]])
+        corners.append([[left, 0, 0], [right, height, 0], [left, height, 0]])
+    return np.array(corners, dtype=np.float64)
+
+
+def test_facets_narrower_than_the_inset_inside_one_chart_hold_points_off_its_border():
+    """A curved surface's facets (a column's, a cable's) are narrower than twice the inset,
+    but filtering mixes in no padding between them: only the chart's border keeps points
+    away. Here one chart of 40 facets 2.5 cm wide: the points fill the rectangle 3 cm inside
+    its outline evenly, and none lies nearer."""
+    inset, count = 0.03, 20000
+    corners = strip_of_facets()
+    points = surface_points(corners, corners[:, :, :2] * 100.0, pages=np.zeros(len(corners)),
+                            count=count, inset=inset, seed=4)
+    assert len(points.page) == count
+    x, y = points.position[:, 0], points.position[:, 1]
+    assert x.min() >= inset - 1e-9 and x.max() <= 1.0 - inset + 1e-9
+    assert y.min() >= inset - 1e-9 and y.max() <= 0.2 - inset + 1e-9
+    np.testing.assert_allclose(points.texel, points.position[:, :2] * 100.0, atol=1e-9)
+    # Even over the kept rectangle: the share left of its middle, and of each facet inside.
+    sigma = math.sqrt(0.25 / count)
+    assert abs(np.mean(x < 0.5) - 0.5) < 4 * sigma
+    facet = np.floor(x / 0.05).astype(int)
+    share = 0.05 / (1.0 - 2 * inset)
+    for index in range(1, 19):
+        assert abs(np.mean(facet == index) - share) < 4 * math.sqrt(share * (1 - share) / count)
+
+
+def test_a_seam_between_two_charts_keeps_points_away_as_a_border_does():
+    """The same facets, the right half on texels of its own (a second chart, or a second
+    page): the shared edge at x = 0.5 is a seam, where a lookup mixes in padding."""
+    inset = 0.03
+    corners = strip_of_facets()
+    right = corners[:, :, 0].mean(axis=1) > 0.5
+    texels = corners[:, :, :2] * 100.0 + np.where(right, 60.0, 0.0)[:, None, None]
+    seam = surface_points(corners, texels, pages=np.zeros(len(corners)), count=5000,
+                          inset=inset, seed=5)
+    paged = surface_points(corners, corners[:, :, :2] * 100.0, pages=right.astype(int),
+                           count=5000, inset=inset, seed=5)
+    for points in (seam, paged):
+        assert np.abs(points.position[:, 0] - 0.5).min() >= inset - 1e-9
+        assert abs(np.mean(points.position[:, 0] < 0.5) - 0.5) < 4 * math.sqrt(0.25 / 5000)
 
 
 def test_bilinear_lookup_of_an_affine_page_is_the_affine_function():
