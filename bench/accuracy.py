@@ -29,8 +29,8 @@ from native.evaluation.surface_error import look_up, surface_error, surface_poin
 
 TARGETS = (0.05, 0.02, 0.01)
 # The error where a renderer looks the lightmaps up (native/evaluation/surface_error.py): this
-# many points spread by area over the compared objects, each this far inside its triangle's
-# edges (metres), off the chart borders.
+# many points spread by area over the compared objects, each at least this far (metres) from
+# their charts' borders, where filtering mixes in the padding.
 SURFACE_POINTS = 20_000
 SURFACE_INSET = 0.02
 # The untimed bake before each timed one stops at this unshot fraction (warm_up()).

@@ -283,8 +283,8 @@ def equal_error_lines(results):
         cells.append(times(speed_up) if speed_up else "-")
         surface_rows.append(cells)
     if surface_rows:
-        lines += ["", f"At points on the surfaces, {surface_inset(results)} inside their "
-                  "triangles, each lightmap filtered as a renderer reads it:", ""]
+        lines += ["", f"At points on the surfaces, {surface_inset(results)} or more inside "
+                  "their charts' borders, each lightmap filtered as a renderer reads it:", ""]
         lines += table(["scene", "texels/m", "points", "Luxel 5 %", "Luxel 2 %", "Luxel 1 %",
                         "Luxel at the end", "Cycles 5 %", "Cycles 2 %", "Cycles 1 %",
                         "Cycles at the end", "2 %: Cycles / Luxel"], surface_rows,
