@@ -71,8 +71,9 @@ def strip_of_facets(width=1.0, height=0.2, facets=20):
 def test_facets_narrower_than_the_inset_inside_one_chart_hold_points_off_its_border():
     """A curved surface's facets (a column's, a cable's) are narrower than twice the inset,
     but filtering mixes in no padding between them: only the chart's border keeps points
-    away. Here one chart of 40 facets 2.5 cm wide: the points fill the rectangle 3 cm inside
-    its outline evenly, and none lies nearer."""
+    away. Here one chart of 20 strips 5 cm wide, each of two triangles whose inradius
+    (2.2 cm) is under the 3 cm inset: the points fill the rectangle 3 cm inside its outline
+    evenly, and none lies nearer."""
     inset, count = 0.03, 20000
     corners = strip_of_facets()
     points = surface_points(corners, corners[:, :, :2] * 100.0, pages=np.zeros(len(corners)),
