@@ -12,7 +12,7 @@ from .errors import SettingsError
 from .geometry import smooth_surfaces, tangents_of
 from .gpu import buffer_content, render_state, set_uniform
 from .receivers import COARSER, PATCH_PROGRAMS
-from .visibility import ALL_FACES, DRAWN_DISTANCE
+from .visibility import ALL_FACES, DRAWN_DISTANCE, covered_rows
 from .shooters import SHOOTER_CELLS
 from .state import (BEND_STEPS, LEAST_SUN_TILES, MAP_UNITS, MOST_SUN_TILES, TOTAL_UNITS,
                     Bounds, Energy, Page, decode_normals, read_map)
@@ -224,7 +224,8 @@ def set_constant_uniforms(state):
         "argmax": {"u_source": 0},
         "visibility": {"u_ortho_half": bounds.radius, "u_sun_tiles": state.sun_tiles},
         "covered": {"u_visibility": 0, "u_drawn": DRAWN_DISTANCE,
-                    "u_pixels": state.receiver_batch},
+                    "u_pixels": state.receiver_batch, "u_rows": covered_rows(state),
+                    "u_faces": state.sun_faces},
         "nonlinear": {"u_resolution": float(state.map_size)},
         "hemisphere": {"u_resolution": float(state.map_size)},
         "hemisphere_tessellated": {"u_resolution": float(state.map_size)},

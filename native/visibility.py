@@ -232,15 +232,17 @@ def _draw(state, visibility, view, *, faces, clip_below, first_layer):
                 visibility.vaos[name].render(moderngl.TRIANGLES, first=first, vertices=vertices)
 
 
+def covered_rows(state):
+    """The map rows a point of covered_share.vert counts (COUNTED_TEXELS texels or fewer)."""
+    return max(1, COUNTED_TEXELS // (state.map_size * state.sun_faces))
+
+
 def covered_shares(state, visibility, count):
     """(count,) the share of the texels that something was drawn into, of the sun_faces
     layers of each of the first ``count`` views of a batch (render_batch): the suns' windows
     the scene covers. Counted on the GPU (covered_share.vert), COUNTED_TEXELS a point:
     reading the maps back took longer than drawing them."""
-    rows = max(1, COUNTED_TEXELS // (state.map_size * state.sun_faces))
-    bands = -(-state.map_size // rows)
-    set_uniform(state.programs["covered"], "u_rows", rows)
-    set_uniform(state.programs["covered"], "u_faces", state.sun_faces)
+    bands = -(-state.map_size // covered_rows(state))
     visibility.texture.use(location=0)
     visibility.covered_framebuffer.clear(0.0, 0.0, 0.0, 0.0)
     visibility.covered_framebuffer.use()
