@@ -8,6 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry import unique_rows
+
 
 @dataclass
 class SurfacePoints:
@@ -79,7 +81,7 @@ def chart_borders(corners, texels, pages):
     to corner k + 1): an edge is inside a chart where exactly two triangles share its ends
     (equal coordinates) on the same page at the same texels."""
     count = len(corners)
-    _, vertex = np.unique(corners.reshape(-1, 3), axis=0, return_inverse=True)
+    _, vertex = unique_rows(corners.reshape(-1, 3), return_inverse=True)
     vertex = vertex.reshape(count, 3)
     start, end = vertex, np.roll(vertex, -1, axis=1)
     low, high = np.minimum(start, end).ravel(), np.maximum(start, end).ravel()
@@ -88,9 +90,9 @@ def chart_borders(corners, texels, pages):
     swapped = (start > end)[..., None]
     ends = np.concatenate([np.where(swapped, texel_end, texel_start),
                            np.where(swapped, texel_start, texel_end)], axis=2).reshape(-1, 4)
-    _, edge, shared_by = np.unique(np.stack([low, high], axis=1), axis=0,
-                                   return_inverse=True, return_counts=True)
-    order = np.argsort(edge.ravel(), kind="stable")
+    _, edge, shared_by = unique_rows(np.stack([low, high], axis=1), return_inverse=True,
+                                     return_counts=True)
+    order = np.argsort(edge, kind="stable")
     first = np.cumsum(shared_by) - shared_by
     pairs = np.nonzero(shared_by == 2)[0]
     one, other = order[first[pairs]], order[first[pairs] + 1]
