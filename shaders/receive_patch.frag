@@ -101,30 +101,48 @@ vec3 part_radiance(ivec2 cell, vec2 offset) {
     return own + limit * (across + along);
 }
 
+// One edge's term in Lambert's formula: the edge from a to b, relative to the receiver.
+vec3 edge_term(vec3 a, vec3 b) {
+    float la = length(a), lb = length(b);
+    if (la < 1e-9 || lb < 1e-9) return vec3(0.0);
+    a /= la; b /= lb;
+    vec3 g = cross(a, b);
+    float s = length(g);
+    if (s < 1e-12) return vec3(0.0);
+    return atan(s, dot(a, b)) * g / s;
+}
+
 // The vector form factor of 'polygon' at 'p' (Lambert's formula, the polygon clipped to the
 // horizon of 'n'): the form factor is minus its component along 'n', and it points the way
 // the polygon's light travels to p, its directions weighted by the solid angle they span.
+// The clipped outline is summed edge by edge as it is found, each exit below the horizon
+// joined along it to the next entry, without a list of its corners: llvmpipe runs indexed
+// local arrays many times slower.
 vec3 form_factor_vector(vec3 polygon[4], vec3 p, vec3 n) {
-    vec3 poly[5];
-    int count = 0;
+    vec3 sum = vec3(0.0);
+    vec3 exit_point = vec3(0.0), first_entry = vec3(0.0);
+    bool exited = false, entered_first = false;
     for (int i = 0; i < 4; ++i) {
         vec3 a = polygon[i] - p, b = polygon[(i + 1) % 4] - p;
         float da = dot(a, n), db = dot(b, n);
-        if (da >= 0.0) poly[count++] = a;
-        if ((da >= 0.0) != (db >= 0.0)) poly[count++] = a + (b - a) * (da / (da - db));
+        bool a_above = da >= 0.0, b_above = db >= 0.0;
+        if (a_above && b_above) {
+            sum += edge_term(a, b);
+        } else if (a_above || b_above) {
+            vec3 crossing = a + (b - a) * (da / (da - db));
+            if (a_above) {
+                sum += edge_term(a, crossing);
+                exit_point = crossing;
+                exited = true;
+            } else {
+                sum += edge_term(crossing, b);
+                if (exited) sum += edge_term(exit_point, crossing);
+                else { first_entry = crossing; entered_first = true; }
+                exited = false;
+            }
+        }
     }
-    vec3 sum = vec3(0.0);
-    if (count < 3) return sum;
-    for (int i = 0; i < count; ++i) {
-        vec3 a = poly[i], b = poly[(i + 1) % count];
-        float la = length(a), lb = length(b);
-        if (la < 1e-9 || lb < 1e-9) continue;
-        a /= la; b /= lb;
-        vec3 g = cross(a, b);
-        float s = length(g);
-        if (s < 1e-12) continue;
-        sum += atan(s, dot(a, b)) * g / s;
-    }
+    if (exited && entered_first) sum += edge_term(exit_point, first_entry);
     return sum / (2.0 * PI);
 }
 
