@@ -1,4 +1,5 @@
 """The solver against closed-form radiosity: form factors, the furnace, Blender's lights."""
+from dataclasses import replace
 import math
 
 import numpy as np
@@ -89,6 +90,32 @@ def test_perpendicular_squares_match_common_edge_formula(ctx, gl_clean, projecti
         f = analytic.polygon_form_factor(point, np.array([0.0, 0.0, 1.0]), wall)
         assert np.isfinite(value)
         assert value == pytest.approx(albedo * radiance[0] * f, rel=0.10)
+
+
+def test_an_emitter_across_the_receivers_plane_lights_it_by_the_part_in_front(ctx, gl_clean,
+                                                                             projection):
+    """A wall's top under a ceiling panel that reaches over the wall's plane: each shooter
+    is clipped to the receiver's horizon, the part behind the wall sending nothing. The
+    panel's texels are half a metre (it shoots from few, large ones); one straddles the
+    plane, its middle in front."""
+    radiance, albedo = 2.0, 0.5
+    scene = (SceneBuilder()
+             .quad("wall", [(0, 0, 0), (0, 1, 0), (0, 1, 0.8), (0, 0, 0.8)], (albedo,) * 3)
+             .quad("panel", [(-0.15, 0, 1), (-0.15, 1, 1), (0.85, 1, 1), (0.85, 0, 1)],
+                   (0.0,) * 3, (radiance,) * 3, two_sided=False)
+             .build())
+    scene = replace(scene, object_texel_scale=[1.0, 2.0 / 16.0])
+    image, samples, _ = bake(scene, ctx, projection, texel_density=16, threshold=0.001,
+                             hemicube_resolution=64)
+    on_wall = samples["occupied"] & (np.abs(samples["position"][..., 0]) < 1e-5) \
+        & (samples["normal"][..., 0] > 0.99) & (samples["coverage"] > 0.99)
+    rows, cols = np.nonzero(on_wall)
+    position = samples["position"][rows, cols]
+    assert len(rows) >= 100
+    in_front = [(0, 0, 1), (0, 1, 1), (0.85, 1, 1), (0.85, 0, 1)]
+    truth = albedo * radiance * analytic.polygon_form_factors(
+        position, np.array([[1.0, 0.0, 0.0]]), in_front)
+    np.testing.assert_allclose(image[rows, cols, 0], truth, rtol=0.03)
 
 
 @pytest.mark.parametrize("albedo", [0.5, 0.9])
