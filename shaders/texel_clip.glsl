@@ -10,10 +10,9 @@
 // column within both shapes. Straight-line code: the polygon clipping it replaces indexed
 // local arrays, which llvmpipe runs many times slower.
 vec3 edge_moments(vec2 a, vec2 b) {
-    if (a.x == b.x) return vec3(0.0);
     float lo = max(min(a.x, b.x), 0.0);
     float hi = min(max(a.x, b.x), 1.0);
-    if (lo >= hi) return vec3(0.0);
+    if (lo >= hi) return vec3(0.0);   // outside the texel's columns, or a vertical edge
     // Where the edge's y crosses 0 and 1 (f bends there), within the run.
     float inverse_run = 1.0 / (b.x - a.x);
     float slope_x = (b.y != a.y) ? (b.x - a.x) / (b.y - a.y) : 0.0;
